@@ -1,0 +1,358 @@
+//! Discretised elasticity on a tet mesh (SPEC §1): energy, forces and the force differential.
+//!
+//! For tet e: `Ds = [x₁−x₀, x₂−x₀, x₃−x₀]`, `F = Ds·Bm`, `H = −W·P(F)·Bmᵀ`; the forces on
+//! x₁, x₂, x₃ are the columns of H and x₀ gets minus their sum. The force differential is the
+//! same with `dF = dDs·Bm` and `dP = (∂P/∂F):dF`, and `K·dx = −df`.
+//!
+//! Parallel and deterministic: every tet writes its four contributions into its own slot of a
+//! per-tet buffer, then every vertex sums its incident slots in a fixed order (tet index). No
+//! atomics, no races, and the same bits for any number of threads. Sums of energies go over
+//! fixed-size chunks added in order.
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::material::{Definiteness, Model, Tangent};
+use crate::math::{Mat3, Vec3};
+use crate::mesh::TetMesh;
+use crate::with_model;
+
+/// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
+/// are the same on any machine.
+const CHUNK: usize = 512;
+
+/// The four per-vertex contributions of one tet.
+pub type TetVectors = [Vec3; 4];
+
+/// Vertex → incident (tet, corner) slots, in increasing tet order (compressed rows).
+#[derive(Clone, Debug, Default)]
+struct Incidence {
+    offsets: Vec<u32>,
+    slots: Vec<u32>,
+}
+
+impl Incidence {
+    fn new(vertex_count: usize, tets: &[[usize; 4]]) -> Self {
+        let mut offsets = vec![0u32; vertex_count + 1];
+        for tet in tets {
+            for &v in tet {
+                offsets[v + 1] += 1;
+            }
+        }
+        for v in 0..vertex_count {
+            offsets[v + 1] += offsets[v];
+        }
+        let mut fill = offsets.clone();
+        let mut slots = vec![0u32; 4 * tets.len()];
+        for (t, tet) in tets.iter().enumerate() {
+            for (corner, &v) in tet.iter().enumerate() {
+                slots[fill[v] as usize] = (4 * t + corner) as u32;
+                fill[v] += 1;
+            }
+        }
+        Incidence { offsets, slots }
+    }
+
+    /// `out[v] (+)= Σ buffer[slot]` over v's slots, in slot order.
+    fn gather(&self, buffer: &[TetVectors], out: &mut [Vec3], accumulate: bool) {
+        out.par_iter_mut()
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(v, o)| {
+                let range = self.offsets[v] as usize..self.offsets[v + 1] as usize;
+                let mut sum = if accumulate { *o } else { Vec3::zeros() };
+                for &slot in &self.slots[range] {
+                    sum += buffer[slot as usize / 4][slot as usize % 4];
+                }
+                *o = sum;
+            });
+    }
+}
+
+/// An elastic body: a validated mesh with its rest data (Bm, W, lumped masses) and a material.
+#[derive(Clone, Debug)]
+pub struct ElasticBody {
+    /// The mesh (rest positions, tets, groups).
+    pub mesh: TetMesh,
+    /// The material of every tet.
+    pub model: Model,
+    /// Density ρ in kg/m³.
+    pub density: f64,
+    bm: Vec<Mat3>,
+    volume: Vec<f64>,
+    mass: Vec<f64>,
+    incidence: Incidence,
+}
+
+/// Min J and how many tets are inverted, for the steps table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeformationStats {
+    /// Smallest det F over the tets.
+    pub min_j: f64,
+    /// Tets with det F ≤ 0.
+    pub inverted: usize,
+}
+
+impl ElasticBody {
+    /// Precompute Bm = Dm⁻¹, W = |det Dm|/6 and the lumped masses (ρW/4 to each vertex of each
+    /// tet). The mesh is validated: every degenerate tet is listed in the error. A negatively
+    /// oriented tet is fine (its Bm carries the sign, its F is right).
+    pub fn new(mesh: TetMesh, model: Model, density: f64) -> Result<Self> {
+        mesh.validate().map_err(|problem| Error::Mesh {
+            path: None,
+            problem,
+        })?;
+        if !(density > 0.0 && density.is_finite()) {
+            return Err(Error::parameter(
+                "material.density",
+                format!("must be positive and finite (kg/m³), got {density}"),
+            ));
+        }
+        let mut bm = Vec::with_capacity(mesh.tets.len());
+        let mut volume = Vec::with_capacity(mesh.tets.len());
+        let mut mass = vec![0.0; mesh.positions.len()];
+        for tet in &mesh.tets {
+            let dm = TetMesh::edge_matrix(&mesh.positions, tet);
+            // Validation guarantees a non-degenerate Dm, so the inverse exists.
+            let inv = dm.try_inverse().unwrap_or_else(Mat3::zeros);
+            let w = dm.determinant().abs() / 6.0;
+            bm.push(inv);
+            volume.push(w);
+            for &v in tet {
+                mass[v] += 0.25 * density * w;
+            }
+        }
+        let incidence = Incidence::new(mesh.positions.len(), &mesh.tets);
+        Ok(ElasticBody {
+            mesh,
+            model,
+            density,
+            bm,
+            volume,
+            mass,
+            incidence,
+        })
+    }
+
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.mesh.positions.len()
+    }
+
+    /// Number of tets.
+    pub fn tet_count(&self) -> usize {
+        self.mesh.tets.len()
+    }
+
+    /// Lumped vertex masses, kg.
+    pub fn masses(&self) -> &[f64] {
+        &self.mass
+    }
+
+    /// Rest volumes W of the tets, m³.
+    pub fn volumes(&self) -> &[f64] {
+        &self.volume
+    }
+
+    /// Bm = Dm⁻¹ of the tets.
+    pub fn rest_inverses(&self) -> &[Mat3] {
+        &self.bm
+    }
+
+    /// F of tet t at positions x.
+    #[inline]
+    pub fn deformation_gradient(&self, x: &[Vec3], t: usize) -> Mat3 {
+        TetMesh::edge_matrix(x, &self.mesh.tets[t]) * self.bm[t]
+    }
+
+    /// Elastic energy E(x) = Σ W Ψ(F), in J.
+    pub fn energy(&self, x: &[Vec3]) -> f64 {
+        assert_eq!(x.len(), self.vertex_count());
+        with_model!(&self.model, m => {
+            let chunks: Vec<f64> = (0..self.tet_count())
+                .into_par_iter()
+                .chunks(CHUNK)
+                .map(|ts| {
+                    ts.iter()
+                        .map(|&t| {
+                            self.volume[t]
+                                * crate::material::Material::energy_density(
+                                    m,
+                                    &self.deformation_gradient(x, t),
+                                )
+                        })
+                        .sum::<f64>()
+                })
+                .collect();
+            chunks.iter().sum()
+        })
+    }
+
+    /// Per-tet energy densities Ψ(F), J/m³ (for output fields).
+    pub fn energy_densities(&self, x: &[Vec3]) -> Vec<f64> {
+        use crate::material::Material;
+        (0..self.tet_count())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| self.model.energy_density(&self.deformation_gradient(x, t)))
+            .collect()
+    }
+
+    /// Per-tet first Piola-Kirchhoff stresses P(F), Pa (for output fields).
+    pub fn stresses(&self, x: &[Vec3]) -> Vec<Mat3> {
+        use crate::material::Material;
+        (0..self.tet_count())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| self.model.stress(&self.deformation_gradient(x, t)))
+            .collect()
+    }
+
+    /// Per-tet J = det F.
+    pub fn jacobians(&self, x: &[Vec3]) -> Vec<f64> {
+        (0..self.tet_count())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| self.deformation_gradient(x, t).determinant())
+            .collect()
+    }
+
+    /// Min J and the number of inverted tets.
+    pub fn deformation_stats(&self, x: &[Vec3]) -> DeformationStats {
+        let j = self.jacobians(x);
+        DeformationStats {
+            min_j: j.iter().copied().fold(f64::INFINITY, f64::min),
+            inverted: j.iter().filter(|&&j| j <= 0.0).count(),
+        }
+    }
+
+    /// `f += f_el(x)`, the elastic forces (N), f = −∂E/∂x.
+    pub fn add_forces(&self, x: &[Vec3], f: &mut [Vec3]) {
+        assert_eq!(x.len(), self.vertex_count());
+        assert_eq!(f.len(), self.vertex_count());
+        let mut buffer = vec![[Vec3::zeros(); 4]; self.tet_count()];
+        with_model!(&self.model, m => {
+            buffer.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(t, slot)| {
+                let stress = crate::material::Material::stress(m, &self.deformation_gradient(x, t));
+                *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
+            });
+        });
+        self.incidence.gather(&buffer, f, true);
+    }
+
+    /// Linearize at x: what CG needs, prepared once per Newton iterate (see [`Linearization`]).
+    pub fn linearize(&self, x: &[Vec3], definiteness: Definiteness) -> Linearization {
+        let mut lin = Linearization::new(self, definiteness);
+        let mut forces = vec![Vec3::zeros(); self.vertex_count()];
+        self.linearize_into(x, &mut lin, &mut forces);
+        lin
+    }
+
+    /// Refill `lin` at x with one SVD per tet, write the elastic forces into `forces` (overwrite)
+    /// and return the elastic energy. Allocation-free: the Newton loop's entry point.
+    pub fn linearize_into(&self, x: &[Vec3], lin: &mut Linearization, forces: &mut [Vec3]) -> f64 {
+        assert_eq!(x.len(), self.vertex_count());
+        assert_eq!(lin.tangents.len(), self.tet_count());
+        let definiteness = lin.definiteness;
+        with_model!(&self.model, m => {
+            lin.tangents
+                .par_chunks_mut(CHUNK)
+                .zip(lin.buffer.par_chunks_mut(CHUNK))
+                .zip(lin.chunk_energy.par_iter_mut())
+                .enumerate()
+                .for_each(|(c, ((tangents, buffer), energy))| {
+                    let mut sum = 0.0;
+                    for (k, (tangent, slot)) in tangents.iter_mut().zip(buffer.iter_mut()).enumerate() {
+                        let t = c * CHUNK + k;
+                        let (psi, stress, tan) = m.evaluate(&self.deformation_gradient(x, t), definiteness);
+                        sum += self.volume[t] * psi;
+                        *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
+                        *tangent = tan;
+                    }
+                    *energy = sum;
+                });
+        });
+        self.incidence.gather(&lin.buffer, forces, false);
+        lin.clamped_tets = lin
+            .tangents
+            .iter()
+            .filter(|t| t.clamped_pieces() > 0)
+            .count();
+        lin.chunk_energy.iter().sum()
+    }
+
+    /// `out = K·dx` with K = ∂²E/∂x² frozen in `lin` (the force differential is −K·dx).
+    pub fn apply_stiffness(&self, lin: &mut Linearization, dx: &[Vec3], out: &mut [Vec3]) {
+        assert_eq!(dx.len(), self.vertex_count());
+        assert_eq!(out.len(), self.vertex_count());
+        let tangents = &lin.tangents;
+        lin.buffer
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, buffer)| {
+                for (k, slot) in buffer.iter_mut().enumerate() {
+                    let t = c * CHUNK + k;
+                    let tet = &self.mesh.tets[t];
+                    let dds = TetMesh::edge_matrix(dx, tet);
+                    let dp = tangents[t].apply(&(dds * self.bm[t]));
+                    // K·dx = −df: the force kernel with the sign flipped.
+                    *slot = tet_forces(&(-dp), &self.bm[t], self.volume[t]);
+                }
+            });
+        self.incidence.gather(&lin.buffer, out, false);
+    }
+}
+
+/// The elastic forces of one tet from its stress: `H = −W·P·Bmᵀ`, columns on vertices 1–3,
+/// minus their sum on vertex 0. With `dP` in place of P it is the force differential.
+#[inline]
+pub fn tet_forces(p: &Mat3, bm: &Mat3, w: f64) -> TetVectors {
+    let h = -w * p * bm.transpose();
+    let (f1, f2, f3) = (
+        h.column(0).into_owned(),
+        h.column(1).into_owned(),
+        h.column(2).into_owned(),
+    );
+    [-(f1 + f2 + f3), f1, f2, f3]
+}
+
+/// K frozen at one state: the per-tet tangents and the scratch the stiffness product needs.
+/// Built by [`ElasticBody::linearize`], refilled in place by [`ElasticBody::linearize_into`].
+#[derive(Clone, Debug)]
+pub struct Linearization {
+    definiteness: Definiteness,
+    tangents: Vec<Tangent>,
+    buffer: Vec<TetVectors>,
+    chunk_energy: Vec<f64>,
+    clamped_tets: usize,
+}
+
+impl Linearization {
+    /// Buffers sized for `body`, to be filled by [`ElasticBody::linearize_into`].
+    pub fn new(body: &ElasticBody, definiteness: Definiteness) -> Self {
+        let n = body.tet_count();
+        let rest = crate::material::Material::tangent(&body.model, &Mat3::identity(), definiteness);
+        Linearization {
+            definiteness,
+            tangents: vec![rest; n],
+            buffer: vec![[Vec3::zeros(); 4]; n],
+            chunk_energy: vec![0.0; n.div_ceil(CHUNK)],
+            clamped_tets: 0,
+        }
+    }
+
+    /// The definiteness treatment these tangents were built with.
+    pub fn definiteness(&self) -> Definiteness {
+        self.definiteness
+    }
+
+    /// The per-tet tangents ∂P/∂F.
+    pub fn tangents(&self) -> &[Tangent] {
+        &self.tangents
+    }
+
+    /// How many tets had part of their tangent clamped by the definiteness fix.
+    pub fn clamped_tets(&self) -> usize {
+        self.clamped_tets
+    }
+}

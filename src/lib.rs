@@ -1,0 +1,42 @@
+//! # tetsim: large elastic deformation on tetrahedral meshes
+//!
+//! A library (and the `tetsim` command) that simulates elastic solids meshed with linear
+//! tetrahedra, robust to inversion, with backward Euler or quasistatic Newton and a matrix-free
+//! conjugate gradient. The math, in the conventions used everywhere in this crate:
+//!
+//! ## Discretisation (SPEC §1)
+//! For tet e with rest vertices X₀..X₃ and current x₀..x₃ (column vectors):
+//! `Dm = [X₁−X₀, X₂−X₀, X₃−X₀]`, `Bm = Dm⁻¹`, `W = |det Dm|/6`;
+//! `Ds = [x₁−x₀, x₂−x₀, x₃−x₀]`, `F = Ds·Bm`. Energy `E(x) = Σₑ W Ψ(Fₑ)`; forces `f = −∂E/∂x`:
+//! `H = −W·P(F)·Bmᵀ`, columns on x₁, x₂, x₃, minus their sum on x₀. Stiffness
+//! `K = ∂²E/∂x² = −∂f/∂x`, so `K·dx = −df` (methods that return K·dx say "stiffness").
+//! Lumped masses: each tet gives ρW/4 to each of its vertices.
+//!
+//! ## Materials (SPEC §2, §3, §6)
+//! Models are written in principal stretches σ of the rotation-variant SVD
+//! `F = U·diag(σ)·Vᵀ` (det U = det V = +1, an inversion carried by σ₃ < 0), extended below an
+//! inversion threshold so that energy, stress and tangent are finite for every F. The tangent
+//! ∂P/∂F splits in diagonal space into a 3×3 block and three 2×2 blocks whose negative
+//! eigenvalues are clamped per element ([`material::Definiteness::Projected`], Teran et al. 2005).
+//!
+//! ## Modules
+//! - [`math`]: rotation-variant SVD, symmetric eigensolver, PSD clamp.
+//! - [`material`]: Ψ, P, dP; the principal-stretch adaptor; Neo-Hookean and corotated.
+//! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
+//! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
+//! - [`error`]: typed, located errors.
+
+#![warn(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod elastic;
+pub mod error;
+pub mod material;
+pub mod math;
+pub mod mesh;
+
+pub use elastic::{ElasticBody, Linearization};
+pub use error::{Error, MeshProblem, Result};
+pub use material::{Definiteness, Lame, Material, Model, ModelKind};
+pub use math::{Mat3, Vec3};
+pub use mesh::TetMesh;

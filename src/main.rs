@@ -1,0 +1,3 @@
+fn main() {
+    println!("tetsim {}", env!("CARGO_PKG_VERSION"));
+}

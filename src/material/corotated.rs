@@ -1,0 +1,53 @@
+//! Corotated, SPEC §2: with F = RS (R the rotation-variant polar rotation U·Vᵀ),
+//! `Ψ = μ‖F − R‖² + λ/2 tr(RᵀF − I)²`, `P = 2μ(F − R) + λ tr(RᵀF − I) R`.
+//!
+//! In principal stretches, with T = Σσₖ: `Ψ̂ = μ Σ(σₖ − 1)² + λ/2 (T − 3)²`,
+//! `pₖ = 2μ(σₖ − 1) + λ(T − 3)`, `∂²Ψ̂/∂σ² = 2μI + λ11ᵀ`. A polynomial in σ, so it is finite for
+//! every F with no extension; an inverted σ₃ < 0 is pushed back towards +1.
+
+use super::Lame;
+use super::isotropic::{Isotropic, guarded_quotient};
+use crate::math::{Mat3, Vec3};
+
+/// Corotated in principal stretches (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Corotated {
+    /// Lamé parameters.
+    pub lame: Lame,
+}
+
+impl Corotated {
+    /// From Lamé parameters.
+    pub fn new(lame: Lame) -> Self {
+        Corotated { lame }
+    }
+}
+
+impl Isotropic for Corotated {
+    fn psi(&self, s: &Vec3) -> f64 {
+        let Lame { mu, lambda } = self.lame;
+        let t = s.sum() - 3.0;
+        mu * s.map(|x| (x - 1.0) * (x - 1.0)).sum() + 0.5 * lambda * t * t
+    }
+
+    fn dpsi(&self, s: &Vec3) -> Vec3 {
+        let Lame { mu, lambda } = self.lame;
+        let t = s.sum() - 3.0;
+        s.map(|x| 2.0 * mu * (x - 1.0) + lambda * t)
+    }
+
+    fn d2psi(&self, _: &Vec3) -> Mat3 {
+        let Lame { mu, lambda } = self.lame;
+        Mat3::repeat(lambda) + Mat3::from_diagonal_element(2.0 * mu)
+    }
+
+    /// `(pᵢ − pⱼ)/(σᵢ − σⱼ) = 2μ` exactly; `(pᵢ + pⱼ)/(σᵢ + σⱼ) = 2μ + (2λ(T−3) − 4μ)/(σᵢ + σⱼ)`.
+    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
+        let Lame { mu, lambda } = self.lame;
+        let t = s.sum() - 3.0;
+        (
+            2.0 * mu,
+            2.0 * mu + guarded_quotient(2.0 * lambda * t - 4.0 * mu, s[i] + s[j]),
+        )
+    }
+}

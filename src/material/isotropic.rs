@@ -1,0 +1,221 @@
+//! The one adaptor that turns a model written in principal stretches into a [`Material`] on F:
+//! the rotation-variant SVD (Irving et al. 2004), the diagonal-space stress, the diagonal-space
+//! tangent and its definiteness fix (Teran et al. 2005), and the lift back with U and V.
+//!
+//! With `F = U·diag(σ)·Vᵀ` (det U = det V = +1, σ₃ < 0 when inverted):
+//! - `Ψ(F) = Ψ̂(σ)`, `P(F) = U·diag(p)·Vᵀ` with `p = ∂Ψ̂/∂σ`;
+//! - in the rotated frame `dF̂ = Uᵀ·dF·V`, `dP̂ = Uᵀ·dP·V` splits into a 3×3 block on the
+//!   diagonal, `dP̂ᵢᵢ = Σⱼ (∂²Ψ̂/∂σᵢ∂σⱼ) dF̂ⱼⱼ`, and one 2×2 block per pair i < j acting on
+//!   (dF̂ᵢⱼ, dF̂ⱼᵢ), whose eigenvectors are the symmetric and antisymmetric combinations with
+//!   eigenvalues `(pᵢ − pⱼ)/(σᵢ − σⱼ)` and `(pᵢ + pⱼ)/(σᵢ + σⱼ)`.
+//!
+//! Definiteness is fixed per element by clamping the negative eigenvalues of these four blocks,
+//! which makes the tangent (and so K) positive semi-definite.
+
+use super::{Definiteness, Material, Tangent};
+use crate::math::{Mat3, Vec3, clamp_psd3, svd_rv};
+
+/// The index pairs (i, j), i < j, of the three 2×2 blocks, in the order [`Tangent`] stores them.
+pub const PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
+
+/// A hyperelastic isotropic model written in principal stretches σ (σ₃ may be negative: the
+/// rotation-variant SVD carries inversion on it). Units: Ψ̂ in J/m³, p in Pa.
+///
+/// Models that are singular at σ = 0 (Neo-Hookean's log J) extend themselves below an inversion
+/// threshold with the C² helpers in this module, so that Ψ̂, p and ∂p/∂σ are finite for every σ
+/// and consistent (each is the exact derivative of the one before).
+pub trait Isotropic: Sync + Send {
+    /// Ψ̂(σ), energy density.
+    fn psi(&self, s: &Vec3) -> f64;
+    /// p = ∂Ψ̂/∂σ, the diagonal of the rotated stress.
+    fn dpsi(&self, s: &Vec3) -> Vec3;
+    /// ∂²Ψ̂/∂σ², symmetric.
+    fn d2psi(&self, s: &Vec3) -> Mat3;
+    /// The two eigenvalues of the (i, j) block: `((pᵢ − pⱼ)/(σᵢ − σⱼ), (pᵢ + pⱼ)/(σᵢ + σⱼ))`,
+    /// given p and ∂p/∂σ at σ. The default divides with care; override with a closed form that
+    /// stays accurate at σᵢ ≈ σⱼ.
+    fn pair_eigenvalues(&self, s: &Vec3, p: &Vec3, h: &Mat3, i: usize, j: usize) -> (f64, f64) {
+        default_pair_eigenvalues(s, p, h, i, j)
+    }
+}
+
+/// Relative gap below which `(pᵢ − pⱼ)/(σᵢ − σⱼ)` is replaced by its limit `Hᵢᵢ − Hᵢⱼ`. At 1e-6
+/// the two choices differ by O(1e-6) relative, about the cancellation error of the quotient.
+const REPEATED_GAP: f64 = 1e-6;
+
+/// `((pᵢ − pⱼ)/(σᵢ − σⱼ), (pᵢ + pⱼ)/(σᵢ + σⱼ))` from p and H alone: the quotient away from
+/// repeated values, the limit `Hᵢᵢ − Hᵢⱼ` at them. Closed forms in the models are better.
+pub fn default_pair_eigenvalues(s: &Vec3, p: &Vec3, h: &Mat3, i: usize, j: usize) -> (f64, f64) {
+    let scale = s[i].abs() + s[j].abs() + f64::MIN_POSITIVE;
+    let gap = s[i] - s[j];
+    let sym = if gap.abs() > REPEATED_GAP * scale {
+        (p[i] - p[j]) / gap
+    } else {
+        h[(i, i)] - h[(i, j)]
+    };
+    (sym, guarded_quotient(p[i] + p[j], s[i] + s[j]))
+}
+
+/// Smallest |σᵢ + σⱼ| divided by. The rotation-variant energy really has a kink where an
+/// inverted σ₃ = −σ₂ (the SVD is ambiguous there), so the antisymmetric eigenvalue has a pole;
+/// we keep it finite (and huge), and the projection clamps it if negative.
+pub const POLE_GUARD: f64 = 1e-8;
+
+/// `num / den` with |den| kept at least [`POLE_GUARD`] (sign kept, +0 counts as positive).
+pub fn guarded_quotient(num: f64, den: f64) -> f64 {
+    let den = if den.abs() < POLE_GUARD {
+        POLE_GUARD.copysign(den)
+    } else {
+        den
+    };
+    num / den
+}
+
+/// A logarithm extended below `eps` by its second-order Taylor expansion at `eps`: C² at `eps`,
+/// finite (→ −∞ quadratically) for every argument, concave everywhere. Used for log J terms so
+/// that inverted and flat elements have finite energy and stress that push them back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExtendedLog {
+    /// The threshold stretch; at or above it the function is exactly `ln`.
+    pub eps: f64,
+}
+
+impl ExtendedLog {
+    /// ℓ(s).
+    pub fn value(&self, s: f64) -> f64 {
+        if s >= self.eps {
+            s.ln()
+        } else {
+            let d = (s - self.eps) / self.eps;
+            self.eps.ln() + d - 0.5 * d * d
+        }
+    }
+
+    /// ℓ'(s) (positive everywhere).
+    pub fn d1(&self, s: f64) -> f64 {
+        if s >= self.eps {
+            1.0 / s
+        } else {
+            (2.0 * self.eps - s) / (self.eps * self.eps)
+        }
+    }
+
+    /// ℓ''(s) (negative everywhere).
+    pub fn d2(&self, s: f64) -> f64 {
+        if s >= self.eps {
+            -1.0 / (s * s)
+        } else {
+            -1.0 / (self.eps * self.eps)
+        }
+    }
+
+    /// The divided difference `(ℓ'(a) − ℓ'(b))/(a − b)`, accurate when a ≈ b (its limit ℓ''
+    /// included): each branch is a closed form, and straddling the threshold is a positive blend.
+    pub fn d1_divided_difference(&self, a: f64, b: f64) -> f64 {
+        let (a, b) = if a >= b { (a, b) } else { (b, a) };
+        let e = self.eps;
+        if b >= e {
+            -1.0 / (a * b)
+        } else if a < e {
+            -1.0 / (e * e)
+        } else {
+            // (ℓ'(a) − ℓ'(e)) + (ℓ'(e) − ℓ'(b)), both pieces in closed form.
+            ((a - e) * (-1.0 / (a * e)) + (e - b) * (-1.0 / (e * e))) / (a - b)
+        }
+    }
+
+    /// `(ℓ'(a) + ℓ'(b))/(a + b)`: exactly `1/(ab)` above the threshold (no division by a + b).
+    pub fn d1_sum_quotient(&self, a: f64, b: f64) -> f64 {
+        if a >= self.eps && b >= self.eps {
+            1.0 / (a * b)
+        } else {
+            guarded_quotient(self.d1(a) + self.d1(b), a + b)
+        }
+    }
+}
+
+/// A model in principal stretches, made a [`Material`] on F.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Invertible<M> {
+    /// The model in principal stretches.
+    pub model: M,
+}
+
+impl<M: Isotropic> Invertible<M> {
+    /// Wrap a model.
+    pub fn new(model: M) -> Self {
+        Invertible { model }
+    }
+
+    /// Ψ, P and the tangent from one SVD: what the element loop needs per Newton iterate.
+    #[inline]
+    pub fn evaluate(&self, f: &Mat3, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
+        let svd = svd_rv(f);
+        let s = svd.sigma;
+        let p = self.model.dpsi(&s);
+        let stress = svd.u * Mat3::from_diagonal(&p) * svd.v.transpose();
+        let tangent = self.tangent_at(&svd.u, &svd.v, &s, &p, definiteness);
+        (self.model.psi(&s), stress, tangent)
+    }
+
+    fn tangent_at(&self, u: &Mat3, v: &Mat3, s: &Vec3, p: &Vec3, d: Definiteness) -> Tangent {
+        let h = self.model.d2psi(s);
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (k, &(i, j)) in PAIRS.iter().enumerate() {
+            let (sym, skew) = self.model.pair_eigenvalues(s, p, &h, i, j);
+            pair_sym[k] = sym;
+            pair_skew[k] = skew;
+        }
+        let mut tangent = Tangent {
+            u: *u,
+            v: *v,
+            diag: h,
+            pair_sym,
+            pair_skew,
+            clamped: 0,
+        };
+        if d == Definiteness::Projected {
+            tangent.project();
+        }
+        tangent
+    }
+}
+
+impl<M: Isotropic> Material for Invertible<M> {
+    fn energy_density(&self, f: &Mat3) -> f64 {
+        self.model.psi(&svd_rv(f).sigma)
+    }
+
+    fn stress(&self, f: &Mat3) -> Mat3 {
+        let svd = svd_rv(f);
+        svd.u * Mat3::from_diagonal(&self.model.dpsi(&svd.sigma)) * svd.v.transpose()
+    }
+
+    fn stress_differential(&self, f: &Mat3, df: &Mat3) -> Mat3 {
+        self.tangent(f, Definiteness::Exact).apply(df)
+    }
+
+    fn tangent(&self, f: &Mat3, definiteness: Definiteness) -> Tangent {
+        let svd = svd_rv(f);
+        let p = self.model.dpsi(&svd.sigma);
+        self.tangent_at(&svd.u, &svd.v, &svd.sigma, &p, definiteness)
+    }
+}
+
+impl Tangent {
+    /// Clamp the negative eigenvalues of the four diagonal-space blocks (Teran et al. 2005, §4).
+    fn project(&mut self) {
+        let (diag, clamped) = clamp_psd3(&self.diag);
+        self.diag = diag;
+        self.clamped = clamped as u8;
+        for k in 0..3 {
+            for value in [&mut self.pair_sym[k], &mut self.pair_skew[k]] {
+                if *value < 0.0 {
+                    *value = 0.0;
+                    self.clamped += 1;
+                }
+            }
+        }
+    }
+}

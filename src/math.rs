@@ -1,0 +1,272 @@
+//! Small dense linear algebra shared by the kernels: the rotation-variant SVD of Irving et al.
+//! 2004, a symmetric 3×3 eigensolver, and the PSD clamp of Teran et al. 2005.
+//!
+//! Both decompositions are hand-written cyclic Jacobi iterations with exact rotations rather than
+//! nalgebra's general SVD: nalgebra does not promise sorted singular values or proper rotations
+//! (det U = det V = +1), which invertible FEM needs, and a 3×3 Jacobi is faster and equally
+//! accurate (nalgebra is the oracle in the tests).
+
+use nalgebra::{Matrix3, Vector3};
+
+/// A 3-vector of f64.
+pub type Vec3 = Vector3<f64>;
+/// A 3×3 matrix of f64 (column-major, as nalgebra stores it).
+pub type Mat3 = Matrix3<f64>;
+
+/// `F = U · diag(σ) · Vᵀ` with U, V proper rotations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Svd {
+    /// Left rotation, det U = +1.
+    pub u: Mat3,
+    /// Singular values, σ₁ ≥ σ₂ ≥ |σ₃|; σ₃ < 0 exactly when det F < 0.
+    pub sigma: Vec3,
+    /// Right rotation, det V = +1.
+    pub v: Mat3,
+}
+
+impl Svd {
+    /// `U · diag(σ) · Vᵀ`.
+    pub fn compose(&self) -> Mat3 {
+        self.u * Mat3::from_diagonal(&self.sigma) * self.v.transpose()
+    }
+}
+
+/// Sweeps are a safety cap: exact-rotation Jacobi on a 3×3 converges quadratically and stops
+/// after 3–5 sweeps at machine precision (3 are not always enough, so we test for convergence).
+const MAX_SWEEPS: usize = 12;
+
+/// Eigen-decomposition of a symmetric 3×3 matrix `a = Q · diag(λ) · Qᵀ`, eigenvalues sorted in
+/// descending order, det Q = +1. The matrix must be symmetric.
+pub fn sym_eigen3(a: &Mat3) -> (Vec3, Mat3) {
+    let mut m = *a;
+    let mut q = Mat3::identity();
+    let scale = m.abs().max();
+    if scale == 0.0 || !scale.is_finite() {
+        return (m.diagonal(), q);
+    }
+    for _ in 0..MAX_SWEEPS {
+        let off = m[(0, 1)].abs() + m[(0, 2)].abs() + m[(1, 2)].abs();
+        if off <= f64::EPSILON * 1e-3 * scale {
+            break;
+        }
+        for (p, r) in [(0, 1), (0, 2), (1, 2)] {
+            jacobi_rotate(&mut m, &mut q, p, r);
+        }
+    }
+    sort_descending(m.diagonal(), q)
+}
+
+/// One exact Jacobi rotation annihilating `m[(p, r)]`; `q` accumulates the rotations.
+fn jacobi_rotate(m: &mut Mat3, q: &mut Mat3, p: usize, r: usize) {
+    let apr = m[(p, r)];
+    if apr == 0.0 {
+        return;
+    }
+    let theta = (m[(r, r)] - m[(p, p)]) / (2.0 * apr);
+    // t = tan(φ), the smaller root of t² + 2θt − 1 = 0, for the smallest rotation.
+    let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+    let t = if theta.is_finite() { t } else { 0.0 };
+    let c = 1.0 / (t * t + 1.0).sqrt();
+    let s = t * c;
+    // m ← Gᵀ m G with G the rotation in the (p, r) plane.
+    for k in 0..3 {
+        let mkp = m[(k, p)];
+        let mkr = m[(k, r)];
+        m[(k, p)] = c * mkp - s * mkr;
+        m[(k, r)] = s * mkp + c * mkr;
+    }
+    for k in 0..3 {
+        let mpk = m[(p, k)];
+        let mrk = m[(r, k)];
+        m[(p, k)] = c * mpk - s * mrk;
+        m[(r, k)] = s * mpk + c * mrk;
+    }
+    m[(p, r)] = 0.0;
+    m[(r, p)] = 0.0;
+    for k in 0..3 {
+        let qkp = q[(k, p)];
+        let qkr = q[(k, r)];
+        q[(k, p)] = c * qkp - s * qkr;
+        q[(k, r)] = s * qkp + c * qkr;
+    }
+}
+
+/// Sort eigenpairs by descending eigenvalue and make the eigenvector basis a proper rotation.
+fn sort_descending(lambda: Vec3, q: Mat3) -> (Vec3, Mat3) {
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| lambda[b].total_cmp(&lambda[a]));
+    let mut sorted_q =
+        Mat3::from_columns(&[q.column(order[0]), q.column(order[1]), q.column(order[2])]);
+    if sorted_q.determinant() < 0.0 {
+        sorted_q.set_column(2, &(-sorted_q.column(2)));
+    }
+    (
+        Vec3::new(lambda[order[0]], lambda[order[1]], lambda[order[2]]),
+        sorted_q,
+    )
+}
+
+/// Rotation-variant SVD (Irving et al. 2004, §5): `F = U · diag(σ) · Vᵀ`, det U = det V = +1,
+/// σ₁ ≥ σ₂ ≥ |σ₃|, and an inversion (det F < 0) carried by σ₃ < 0.
+///
+/// V comes from the Jacobi eigenvectors of FᵀF (sorted, det +1); U and σ from a Givens QR of
+/// F·V, whose R is diagonal up to rounding. Givens rotations keep U a proper rotation for every F,
+/// including rank-0, rank-1 and rank-2 F and repeated singular values, and leave the sign of
+/// det F on the last diagonal entry of R. Accuracy is absolute (about 1e-15·‖F‖), which is what
+/// forces need.
+pub fn svd_rv(f: &Mat3) -> Svd {
+    let (_, v) = sym_eigen3(&(f.transpose() * f));
+    let mut b = f * v;
+    let mut ut = Mat3::identity(); // accumulates Qᵀ = G₃G₂G₁
+    for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {
+        givens_rows(&mut b, &mut ut, col, p, r);
+    }
+    Svd {
+        u: ut.transpose(),
+        sigma: Vec3::new(b[(0, 0)], b[(1, 1)], b[(2, 2)]),
+        v,
+    }
+}
+
+/// Rotate rows p and r of `b` (and of `ut`) so that `b[(r, col)]` becomes zero and
+/// `b[(p, col)] = hypot(...) ≥ 0`.
+fn givens_rows(b: &mut Mat3, ut: &mut Mat3, col: usize, p: usize, r: usize) {
+    let x = b[(p, col)];
+    let y = b[(r, col)];
+    let h = x.hypot(y);
+    if h == 0.0 {
+        return;
+    }
+    let (c, s) = (x / h, y / h);
+    for m in [&mut *b, &mut *ut] {
+        for k in 0..3 {
+            let mp = m[(p, k)];
+            let mr = m[(r, k)];
+            m[(p, k)] = c * mp + s * mr;
+            m[(r, k)] = -s * mp + c * mr;
+        }
+    }
+    b[(r, col)] = 0.0;
+}
+
+/// Project a symmetric 3×3 matrix onto the PSD cone by clamping negative eigenvalues to zero.
+/// Returns the matrix unchanged (bit for bit) when it is already PSD, so that the projected and
+/// exact tangents agree exactly near rest. The bool says whether anything was clamped.
+pub fn clamp_psd3(a: &Mat3) -> (Mat3, bool) {
+    // Cheap exit: a diagonally dominant matrix with a non-negative diagonal is PSD.
+    let dominant = (0..3).all(|i| {
+        let off: f64 = (0..3).filter(|&j| j != i).map(|j| a[(i, j)].abs()).sum();
+        a[(i, i)] >= off
+    });
+    if dominant {
+        return (*a, false);
+    }
+    let (lambda, q) = sym_eigen3(a);
+    if lambda.min() >= 0.0 {
+        return (*a, false);
+    }
+    let clamped = lambda.map(|l| l.max(0.0));
+    (q * Mat3::from_diagonal(&clamped) * q.transpose(), true)
+}
+
+/// True when every entry is finite.
+pub fn all_finite(m: &Mat3) -> bool {
+    m.iter().all(|x| x.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check_svd(f: &Mat3) {
+        let svd = svd_rv(f);
+        let scale = f.norm().max(1e-300);
+        assert!(
+            (svd.compose() - f).norm() <= 1e-13 * scale,
+            "F not reproduced: {f}"
+        );
+        assert!((svd.u.determinant() - 1.0).abs() < 1e-12);
+        assert!((svd.v.determinant() - 1.0).abs() < 1e-12);
+        assert!((svd.u.transpose() * svd.u - Mat3::identity()).norm() < 1e-13);
+        assert!((svd.v.transpose() * svd.v - Mat3::identity()).norm() < 1e-13);
+        let s = svd.sigma;
+        let tol = 1e-13 * scale;
+        assert!(
+            s[0] + tol >= s[1] && s[1] + tol >= s[2].abs(),
+            "unsorted {s}"
+        );
+        assert!(s[0] >= 0.0 && s[1] >= 0.0);
+        let det = f.determinant();
+        if det.abs() > 1e-10 * scale.powi(3) {
+            assert_eq!(
+                det < 0.0,
+                s[2] < 0.0,
+                "inversion sign on σ₃: det {det}, σ {s}"
+            );
+        }
+        // The singular values agree with nalgebra's (the oracle) up to order and sign.
+        let mut oracle: Vec<f64> = f
+            .svd(false, false)
+            .singular_values
+            .iter()
+            .copied()
+            .collect();
+        oracle.sort_by(|a, b| b.total_cmp(a));
+        for k in 0..3 {
+            assert!(
+                (s[k].abs() - oracle[k]).abs() <= 1e-13 * scale,
+                "σ {s} vs {oracle:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn svd_special_cases() {
+        let r = nalgebra::Rotation3::from_euler_angles(0.3, -1.1, 2.0).into_inner();
+        let cases = [
+            Mat3::identity(),
+            Mat3::zeros(),
+            -Mat3::identity(),
+            Mat3::from_diagonal(&Vec3::new(1.0, -1.0, 1.0)),
+            Mat3::from_diagonal(&Vec3::new(0.5, 2.0, 3.0)),
+            Mat3::from_diagonal(&Vec3::new(0.0, 2.0, 0.0)),
+            Mat3::from_diagonal(&Vec3::new(2.0, 2.0, 2.0)) * r,
+            r * Mat3::from_diagonal(&Vec3::new(1.0, 1.0, 0.0)),
+            r * Mat3::from_diagonal(&Vec3::new(1.0, 1.0, -1e-9)),
+            Vec3::new(1.0, 2.0, 3.0) * Vec3::new(-1.0, 0.5, 0.25).transpose(),
+            Mat3::new(1.0, 1e-8, 0.0, 0.0, 1.0, 1e-8, 0.0, 0.0, 1.0),
+        ];
+        for f in &cases {
+            check_svd(f);
+        }
+    }
+
+    #[test]
+    fn svd_random() {
+        let mut state = 12345u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0
+        };
+        for _ in 0..2000 {
+            let f = Mat3::from_fn(|_, _| next());
+            check_svd(&f);
+        }
+    }
+
+    #[test]
+    fn clamp_keeps_psd_and_fixes_indefinite() {
+        let a = Mat3::new(2.0, 0.5, 0.0, 0.5, 1.0, 0.1, 0.0, 0.1, 3.0);
+        assert_eq!(clamp_psd3(&a), (a, false));
+        let b = Mat3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, -1.0);
+        let (c, clamped) = clamp_psd3(&b);
+        assert!(clamped);
+        let (l, _) = sym_eigen3(&c);
+        assert!(l.min() > -1e-14, "{l}");
+        // The positive eigenpair (3, [1,1,0]/√2) survives.
+        let e = Vec3::new(1.0, 1.0, 0.0).normalize();
+        assert!(((c * e) - 3.0 * e).norm() < 1e-13);
+    }
+}

@@ -1,0 +1,161 @@
+//! Shared test helpers: seeded randomness, deformation-gradient generators, finite differences
+//! with a sweep of step sizes, small meshes.
+#![allow(dead_code)]
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use tetsim::mesh::generate::box_mesh;
+use tetsim::{Mat3, TetMesh, Vec3};
+
+/// A seeded generator, so every failure reproduces.
+pub fn rng(seed: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(seed)
+}
+
+/// Uniform in [lo, hi).
+pub fn uniform(rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    rng.random_range(lo..hi)
+}
+
+/// A random rotation (uniform axis-angle, good enough for tests).
+pub fn rotation(rng: &mut ChaCha8Rng) -> Mat3 {
+    let axis = Vec3::new(
+        uniform(rng, -1.0, 1.0),
+        uniform(rng, -1.0, 1.0),
+        uniform(rng, -1.0, 1.0),
+    );
+    let angle = uniform(rng, -3.1, 3.1);
+    nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).into_inner()
+}
+
+/// A random matrix with entries in [-1, 1).
+pub fn random_matrix(rng: &mut ChaCha8Rng) -> Mat3 {
+    Mat3::from_fn(|_, _| uniform(rng, -1.0, 1.0))
+}
+
+/// `R₁·diag(σ)·R₂` with random rotations.
+pub fn with_stretches(rng: &mut ChaCha8Rng, s: Vec3) -> Mat3 {
+    rotation(rng) * Mat3::from_diagonal(&s) * rotation(rng)
+}
+
+/// The families of F every derivative is checked on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// Moderate random deformation, det F > 0.
+    Random,
+    /// det F ≈ 1e-3.
+    NearInverted,
+    /// det F < 0.
+    Inverted,
+    /// Rank 2: det F = 0.
+    Flat,
+}
+
+pub const FAMILIES: [Family; 4] = [
+    Family::Random,
+    Family::NearInverted,
+    Family::Inverted,
+    Family::Flat,
+];
+
+/// A random F of the given family. Stretches are kept apart from the rotation-variant energy's
+/// kink at σ₂ = −σ₃ (see `material::isotropic::POLE_GUARD`).
+pub fn sample_f(rng: &mut ChaCha8Rng, family: Family) -> Mat3 {
+    let s1 = uniform(rng, 0.5, 2.0);
+    let s2 = uniform(rng, 0.4, 1.6);
+    match family {
+        Family::Random => {
+            let s3 = uniform(rng, 0.4, 1.5);
+            with_stretches(rng, Vec3::new(s1, s2, s3))
+        }
+        Family::NearInverted => with_stretches(rng, Vec3::new(s1, s2, 1e-3 / (s1 * s2))),
+        Family::Inverted => {
+            let s3 = -uniform(rng, 0.05, 0.6) * s1.min(s2);
+            with_stretches(rng, Vec3::new(s1, s2, s3))
+        }
+        Family::Flat => with_stretches(rng, Vec3::new(s1, s2, 0.0)),
+    }
+}
+
+/// Step sizes swept by the finite-difference checks (HOBAK's habit: trust the best, not one ε).
+pub const STEPS: [f64; 7] = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8];
+
+/// The smallest relative error between `analytic` and central differences `fd(h)` over the step
+/// sweep. Relative to the larger of the two norms and `floor` (for values that should be ~0).
+pub fn best_relative_error<T>(analytic: &[f64], floor: f64, fd: T) -> (f64, f64)
+where
+    T: Fn(f64) -> Vec<f64>,
+{
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    STEPS
+        .iter()
+        .map(|&h| {
+            let approx = fd(h);
+            let diff: Vec<f64> = approx.iter().zip(analytic).map(|(a, b)| a - b).collect();
+            let scale = norm(analytic).max(norm(&approx)).max(floor);
+            (norm(&diff) / scale, h)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .unwrap()
+}
+
+/// Mat3 entries as a slice-friendly Vec.
+pub fn flat(m: &Mat3) -> Vec<f64> {
+    m.iter().copied().collect()
+}
+
+/// Flatten vertex vectors.
+pub fn flat_vecs(v: &[Vec3]) -> Vec<f64> {
+    v.iter().flat_map(|p| p.iter().copied()).collect()
+}
+
+/// Σ a·b over vertex vectors.
+pub fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x.dot(y)).sum()
+}
+
+/// A small beam mesh [0,2]×[0,1]×[0,1] of 2×1×1 cubes with jittered interior-free vertices.
+pub fn small_mesh(rng: &mut ChaCha8Rng) -> TetMesh {
+    let mut mesh = box_mesh(Vec3::zeros(), Vec3::new(2.0, 1.0, 1.0), [2, 1, 1]);
+    for p in &mut mesh.positions {
+        *p += 0.05
+            * Vec3::new(
+                uniform(rng, -1.0, 1.0),
+                uniform(rng, -1.0, 1.0),
+                uniform(rng, -1.0, 1.0),
+            );
+    }
+    mesh
+}
+
+/// Positions: rest plus a random displacement of size `amount` (relative to edge length 1).
+pub fn perturbed(rng: &mut ChaCha8Rng, rest: &[Vec3], amount: f64) -> Vec<Vec3> {
+    rest.iter()
+        .map(|p| {
+            p + amount
+                * Vec3::new(
+                    uniform(rng, -1.0, 1.0),
+                    uniform(rng, -1.0, 1.0),
+                    uniform(rng, -1.0, 1.0),
+                )
+        })
+        .collect()
+}
+
+/// A random vector field.
+pub fn random_field(rng: &mut ChaCha8Rng, n: usize) -> Vec<Vec3> {
+    (0..n)
+        .map(|_| {
+            Vec3::new(
+                uniform(rng, -1.0, 1.0),
+                uniform(rng, -1.0, 1.0),
+                uniform(rng, -1.0, 1.0),
+            )
+        })
+        .collect()
+}
+
+/// `a + t·b` over vertex vectors.
+pub fn axpy(a: &[Vec3], t: f64, b: &[Vec3]) -> Vec<Vec3> {
+    a.iter().zip(b).map(|(x, y)| x + t * y).collect()
+}

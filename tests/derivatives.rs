@@ -1,0 +1,672 @@
+//! Tier 1: every derivative against finite differences (Ψ → P, P → dP, E → f, f → K·dx) at
+//! random, near-inverted, inverted and flat F, with a sweep of step sizes; the definiteness fix;
+//! the invariants of the discrete forces; determinism across thread counts.
+
+mod common;
+
+use common::*;
+use tetsim::elastic::tet_forces;
+use tetsim::material::{Corotated, Invertible, Isotropic, NeoHookean};
+use tetsim::{Definiteness, ElasticBody, Lame, Mat3, Material, Model, ModelKind, TetMesh, Vec3};
+
+/// Samples per F family and check.
+const SAMPLES: usize = 25;
+/// Relative error the best step of the sweep must reach.
+const FD_TOLERANCE: f64 = 1e-6;
+
+fn lame() -> Lame {
+    Lame::from_young_poisson(1e6, 0.3)
+}
+
+/// Stress scale, as the floor of relative errors for values that are nearly zero.
+fn stress_scale(l: Lame) -> f64 {
+    l.mu + l.lambda
+}
+
+/// The 9×9 matrix of a tangent, column k = dP for the k-th unit dF (column-major vec).
+fn tangent_matrix(apply: impl Fn(&Mat3) -> Mat3) -> nalgebra::SMatrix<f64, 9, 9> {
+    let mut m = nalgebra::SMatrix::<f64, 9, 9>::zeros();
+    for k in 0..9 {
+        let mut df = Mat3::zeros();
+        df[k] = 1.0;
+        let dp = apply(&df);
+        for r in 0..9 {
+            m[(r, k)] = dp[r];
+        }
+    }
+    m
+}
+
+fn check_psi_to_p(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    for family in FAMILIES {
+        for _ in 0..SAMPLES {
+            let f = sample_f(&mut rng, family);
+            let df = random_matrix(&mut rng);
+            let analytic = [model.stress(&f).dot(&df)];
+            let (err, h) = best_relative_error(&analytic, stress_scale(lame()), |h| {
+                vec![
+                    (model.energy_density(&(f + h * df)) - model.energy_density(&(f - h * df)))
+                        / (2.0 * h),
+                ]
+            });
+            assert!(
+                err < FD_TOLERANCE,
+                "{:?} Ψ→P {family:?}: error {err:e} (best h {h:e}) at F = {f}",
+                model.kind()
+            );
+        }
+    }
+}
+
+fn check_p_to_dp(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    for family in FAMILIES {
+        for _ in 0..SAMPLES {
+            let f = sample_f(&mut rng, family);
+            let df = random_matrix(&mut rng);
+            let analytic = flat(&model.stress_differential(&f, &df));
+            let (err, h) = best_relative_error(&analytic, stress_scale(lame()), |h| {
+                flat(&((model.stress(&(f + h * df)) - model.stress(&(f - h * df))) / (2.0 * h)))
+            });
+            assert!(
+                err < FD_TOLERANCE,
+                "{:?} P→dP {family:?}: error {err:e} (best h {h:e}) at F = {f}",
+                model.kind()
+            );
+        }
+    }
+}
+
+fn check_tangent_consistency(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    for family in FAMILIES {
+        for _ in 0..SAMPLES {
+            let f = sample_f(&mut rng, family);
+            let df = random_matrix(&mut rng);
+            let (psi, p, tangent) = model.evaluate(&f, Definiteness::Exact);
+            assert_eq!(psi, model.energy_density(&f));
+            assert_eq!(p, model.stress(&f));
+            assert_eq!(tangent.apply(&df), model.stress_differential(&f, &df));
+            // The exact tangent is symmetric (it is a Hessian), and so is the projected one.
+            for d in [Definiteness::Exact, Definiteness::Projected] {
+                let m = tangent_matrix(|x| model.tangent(&f, d).apply(x));
+                let asym = (m - m.transpose()).norm() / m.norm();
+                assert!(
+                    asym < 1e-12,
+                    "{d:?} tangent not symmetric ({asym:e}) at {f}"
+                );
+            }
+        }
+    }
+}
+
+fn check_projected_psd(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    for family in FAMILIES {
+        for _ in 0..SAMPLES {
+            // Heavily deformed: large stretches and shears on top of the family's F.
+            let f = sample_f(&mut rng, family)
+                + 0.5 * random_matrix(&mut rng) * (family == Family::Random) as u8 as f64;
+            let m = tangent_matrix(|x| model.tangent(&f, Definiteness::Projected).apply(x));
+            let eig = nalgebra::SymmetricEigen::new(0.5 * (m + m.transpose())).eigenvalues;
+            let min = eig.min();
+            assert!(
+                min >= -1e-9 * eig.amax(),
+                "{family:?}: projected tangent eigenvalue {min:e} at {f}"
+            );
+        }
+    }
+}
+
+/// Near rest the exact tangent is already PSD under stretching, so the projection leaves it
+/// untouched (bit for bit). Under small compression the exact Hessian has genuinely negative
+/// rotational eigenvalues of size O(‖F − I‖·λ), so there the two differ by that much and agree
+/// in the limit F → I.
+fn check_projected_equals_exact_near_rest(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    let scale = stress_scale(lame());
+    for _ in 0..SAMPLES {
+        let stretch = Vec3::from_fn(|_, _| uniform(&mut rng, 1.0, 1.02));
+        let f = with_stretches(&mut rng, stretch);
+        let exact = model.tangent(&f, Definiteness::Exact);
+        let projected = model.tangent(&f, Definiteness::Projected);
+        assert_eq!(projected.clamped_pieces(), 0, "clamped near rest at {f}");
+        assert_eq!(exact, projected);
+        for size in [1e-2, 1e-4, 1e-6] {
+            let f = Mat3::identity() + size * random_matrix(&mut rng);
+            let exact = tangent_matrix(|x| model.tangent(&f, Definiteness::Exact).apply(x));
+            let projected = tangent_matrix(|x| model.tangent(&f, Definiteness::Projected).apply(x));
+            let gap = (exact - projected).norm();
+            assert!(
+                gap <= 10.0 * size * scale,
+                "‖exact − projected‖ = {gap:e} at ‖F − I‖ ~ {size:e}"
+            );
+        }
+    }
+}
+
+fn check_finite_everywhere(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    let r = rotation(&mut rng);
+    let cases = [
+        ("rank-0", Mat3::zeros()),
+        ("rank-1", with_stretches(&mut rng, Vec3::new(1.3, 0.0, 0.0))),
+        ("rank-2", with_stretches(&mut rng, Vec3::new(1.3, 0.7, 0.0))),
+        (
+            "reflected",
+            r * Mat3::from_diagonal(&Vec3::new(1.0, 1.0, -1.0)),
+        ),
+        ("point-reflected", -Mat3::identity()),
+        ("huge", 1e3 * r),
+        ("tiny", 1e-12 * r),
+    ];
+    let rest = TetMesh::new(
+        vec![Vec3::zeros(), Vec3::x(), Vec3::y(), Vec3::z()],
+        vec![[0, 1, 2, 3]],
+    );
+    let body = ElasticBody::new(rest.clone(), *model, 1000.0).unwrap();
+    for (name, f) in cases {
+        let (psi, p, _) = model.evaluate(&f, Definiteness::Exact);
+        let projected = model.tangent(&f, Definiteness::Projected);
+        let dp = projected.apply(&random_matrix(&mut rng));
+        assert!(
+            psi.is_finite() && tetsim::math::all_finite(&p) && tetsim::math::all_finite(&dp),
+            "{name}: non-finite"
+        );
+        // The tet deformed by F: forces are finite, non-zero, and a small step along them lowers
+        // the energy (they push back toward the rest shape).
+        let x: Vec<Vec3> = rest.positions.iter().map(|p| f * p).collect();
+        let mut force = vec![Vec3::zeros(); 4];
+        body.add_forces(&x, &mut force);
+        let norm = flat_vecs(&force).iter().map(|c| c * c).sum::<f64>().sqrt();
+        assert!(norm.is_finite() && norm > 0.0, "{name}: force {norm}");
+        let e0 = body.energy(&x);
+        let step = 1e-4 / norm.max(1.0) * (1.0 + f.norm());
+        let e1 = body.energy(&axpy(&x, step, &force));
+        assert!(
+            e1 < e0,
+            "{name}: energy {e0} does not fall along the force ({e1})"
+        );
+    }
+}
+
+/// Neo-Hookean and corotated with F above the inversion threshold equal the SPEC §2 formulas.
+fn check_matches_analytic(model: &Model, seed: u64) {
+    let mut rng = rng(seed);
+    let Lame { mu, lambda } = lame();
+    for _ in 0..SAMPLES {
+        let s = Vec3::from_fn(|_, _| uniform(&mut rng, 0.35, 2.0));
+        let f = with_stretches(&mut rng, s);
+        let j = f.determinant();
+        let (psi, p) = match model.kind() {
+            ModelKind::NeoHookean => {
+                let f_inv_t = f.try_inverse().unwrap().transpose();
+                let log_j = j.ln();
+                (
+                    0.5 * mu * ((f.transpose() * f).trace() - 3.0) - mu * log_j
+                        + 0.5 * lambda * log_j * log_j,
+                    mu * (f - f_inv_t) + lambda * log_j * f_inv_t,
+                )
+            }
+            ModelKind::Corotated => {
+                let r = f.svd(true, true);
+                let rot = r.u.unwrap() * r.v_t.unwrap();
+                let rot = if rot.determinant() < 0.0 {
+                    panic!("positive det F expected")
+                } else {
+                    rot
+                };
+                let tr = (rot.transpose() * f - Mat3::identity()).trace();
+                (
+                    mu * (f - rot).norm_squared() + 0.5 * lambda * tr * tr,
+                    2.0 * mu * (f - rot) + lambda * tr * rot,
+                )
+            }
+        };
+        let scale = stress_scale(lame());
+        assert!(
+            (psi - model.energy_density(&f)).abs() < 1e-9 * scale,
+            "Ψ differs at {f}"
+        );
+        assert!(
+            (p - model.stress(&f)).norm() < 1e-9 * scale,
+            "P differs at {f}"
+        );
+    }
+}
+
+fn body_states(seed: u64) -> (ElasticBody, Vec<(&'static str, Vec<Vec3>)>) {
+    let mut rng = rng(seed);
+    let mesh = small_mesh(&mut rng);
+    let rest = mesh.positions.clone();
+    let (lo, hi) = mesh.bounding_box();
+    let scrambled: Vec<Vec3> = rest
+        .iter()
+        .map(|_| {
+            Vec3::new(
+                uniform(&mut rng, lo.x, hi.x),
+                uniform(&mut rng, lo.y, hi.y),
+                uniform(&mut rng, lo.z, hi.z),
+            )
+        })
+        .collect();
+    let deformed = perturbed(&mut rng, &rest, 0.25);
+    let body = ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame()), 1000.0).unwrap();
+    (body, vec![("deformed", deformed), ("scrambled", scrambled)])
+}
+
+fn check_body_energy_to_forces(model: &Model, seed: u64) {
+    let (mut body, states) = body_states(seed);
+    body.model = *model;
+    let mut rng = rng(seed + 1);
+    for (name, x) in states {
+        let mut f = vec![Vec3::zeros(); x.len()];
+        body.add_forces(&x, &mut f);
+        for _ in 0..5 {
+            let dx = random_field(&mut rng, x.len());
+            let analytic = [-dot(&f, &dx)];
+            let (err, h) = best_relative_error(&analytic, 1e-6 * stress_scale(lame()), |h| {
+                vec![(body.energy(&axpy(&x, h, &dx)) - body.energy(&axpy(&x, -h, &dx))) / (2.0 * h)]
+            });
+            assert!(err < FD_TOLERANCE, "{name}: E→f error {err:e} (h {h:e})");
+        }
+    }
+}
+
+fn check_body_forces_to_stiffness(model: &Model, seed: u64) {
+    let (mut body, states) = body_states(seed);
+    body.model = *model;
+    let mut rng = rng(seed + 2);
+    for (name, x) in states {
+        let mut lin = body.linearize(&x, Definiteness::Exact);
+        let forces_at = |x: &[Vec3]| {
+            let mut f = vec![Vec3::zeros(); x.len()];
+            body.add_forces(x, &mut f);
+            f
+        };
+        for _ in 0..5 {
+            let dx = random_field(&mut rng, x.len());
+            let mut kdx = vec![Vec3::zeros(); x.len()];
+            body.apply_stiffness(&mut lin, &dx, &mut kdx);
+            let analytic = flat_vecs(&kdx);
+            let (err, h) = best_relative_error(&analytic, 1e-6 * stress_scale(lame()), |h| {
+                let fp = forces_at(&axpy(&x, h, &dx));
+                let fm = forces_at(&axpy(&x, -h, &dx));
+                // K·dx = −df
+                fp.iter()
+                    .zip(&fm)
+                    .flat_map(|(a, b)| ((b - a) / (2.0 * h)).iter().copied().collect::<Vec<_>>())
+                    .collect()
+            });
+            assert!(err < FD_TOLERANCE, "{name}: f→K·dx error {err:e} (h {h:e})");
+        }
+    }
+}
+
+/// Dense K of a body (3n × 3n) by applying the stiffness product to unit vectors.
+fn dense_stiffness(body: &ElasticBody, x: &[Vec3], d: Definiteness) -> nalgebra::DMatrix<f64> {
+    let n = x.len();
+    let mut lin = body.linearize(x, d);
+    let mut k = nalgebra::DMatrix::zeros(3 * n, 3 * n);
+    let mut e = vec![Vec3::zeros(); n];
+    let mut out = vec![Vec3::zeros(); n];
+    for col in 0..3 * n {
+        e.iter_mut().for_each(|v| *v = Vec3::zeros());
+        e[col / 3][col % 3] = 1.0;
+        body.apply_stiffness(&mut lin, &e, &mut out);
+        for (r, v) in flat_vecs(&out).into_iter().enumerate() {
+            k[(r, col)] = v;
+        }
+    }
+    k
+}
+
+fn check_stiffness_symmetric_and_projected_psd(model: &Model, seed: u64) {
+    let (mut body, states) = body_states(seed);
+    body.model = *model;
+    let mut rng = rng(seed + 3);
+    for (name, x) in states {
+        for d in [Definiteness::Exact, Definiteness::Projected] {
+            let mut lin = body.linearize(&x, d);
+            for _ in 0..5 {
+                let p = random_field(&mut rng, x.len());
+                let q = random_field(&mut rng, x.len());
+                let mut kp = vec![Vec3::zeros(); x.len()];
+                let mut kq = vec![Vec3::zeros(); x.len()];
+                body.apply_stiffness(&mut lin, &p, &mut kp);
+                body.apply_stiffness(&mut lin, &q, &mut kq);
+                let (a, b) = (dot(&q, &kp), dot(&p, &kq));
+                assert!(
+                    (a - b).abs() <= 1e-10 * (a.abs() + b.abs() + 1.0),
+                    "{name} {d:?}: q·Kp {a} ≠ p·Kq {b}"
+                );
+            }
+        }
+        let k = dense_stiffness(&body, &x, Definiteness::Projected);
+        let eig = nalgebra::SymmetricEigen::new(0.5 * (&k + k.transpose())).eigenvalues;
+        assert!(
+            eig.min() >= -1e-9 * eig.amax(),
+            "{name}: projected K has eigenvalue {:e}",
+            eig.min()
+        );
+    }
+}
+
+macro_rules! material_tests {
+    ($name:ident, $kind:expr, $seed:expr) => {
+        mod $name {
+            use super::*;
+            fn model() -> Model {
+                Model::new($kind, lame())
+            }
+            #[test]
+            fn energy_to_stress_matches_finite_differences() {
+                check_psi_to_p(&model(), $seed);
+            }
+            #[test]
+            fn stress_to_differential_matches_finite_differences() {
+                check_p_to_dp(&model(), $seed + 10);
+            }
+            #[test]
+            fn tangent_is_consistent_and_symmetric() {
+                check_tangent_consistency(&model(), $seed + 20);
+            }
+            #[test]
+            fn projected_tangent_is_psd() {
+                check_projected_psd(&model(), $seed + 30);
+            }
+            #[test]
+            fn projected_equals_exact_near_rest() {
+                check_projected_equals_exact_near_rest(&model(), $seed + 40);
+            }
+            #[test]
+            fn finite_and_restoring_for_every_f() {
+                check_finite_everywhere(&model(), $seed + 50);
+            }
+            #[test]
+            fn equals_analytic_model_above_threshold() {
+                check_matches_analytic(&model(), $seed + 60);
+            }
+            #[test]
+            fn body_energy_to_forces_matches_finite_differences() {
+                check_body_energy_to_forces(&model(), $seed + 70);
+            }
+            #[test]
+            fn body_forces_to_stiffness_matches_finite_differences() {
+                check_body_forces_to_stiffness(&model(), $seed + 80);
+            }
+            #[test]
+            fn stiffness_symmetric_and_projected_psd() {
+                check_stiffness_symmetric_and_projected_psd(&model(), $seed + 90);
+            }
+        }
+    };
+}
+
+material_tests!(neo_hookean, ModelKind::NeoHookean, 100);
+material_tests!(corotated, ModelKind::Corotated, 200);
+
+/// The element kernel: tet energy W Ψ(Ds Bm) → tet_forces, on a single tet.
+#[test]
+fn tet_forces_match_energy_gradient() {
+    let mut rng = rng(7);
+    let rest = vec![
+        Vec3::zeros(),
+        Vec3::new(1.0, 0.1, 0.0),
+        Vec3::new(0.2, 0.9, 0.1),
+        Vec3::new(0.1, 0.2, 1.1),
+    ];
+    let dm = TetMesh::edge_matrix(&rest, &[0, 1, 2, 3]);
+    let (bm, w) = (dm.try_inverse().unwrap(), dm.determinant().abs() / 6.0);
+    let model = Model::new(ModelKind::NeoHookean, lame());
+    for family in FAMILIES {
+        let f = sample_f(&mut rng, family);
+        let x: Vec<Vec3> = rest.iter().map(|p| f * p).collect();
+        let energy =
+            |x: &[Vec3]| w * model.energy_density(&(TetMesh::edge_matrix(x, &[0, 1, 2, 3]) * bm));
+        let forces = tet_forces(&model.stress(&f), &bm, w);
+        let dx = random_field(&mut rng, 4);
+        let analytic = [-dot(&forces, &dx)];
+        let (err, _) = best_relative_error(&analytic, 1e-6 * stress_scale(lame()), |h| {
+            vec![(energy(&axpy(&x, h, &dx)) - energy(&axpy(&x, -h, &dx))) / (2.0 * h)]
+        });
+        assert!(err < FD_TOLERANCE, "{family:?}: {err:e}");
+    }
+}
+
+/// Models in principal stretches: ∂Ψ̂/∂σ and ∂²Ψ̂/∂σ² against differences of Ψ̂, including
+/// stretches below the inversion threshold and negative ones.
+#[test]
+fn principal_stretch_derivatives_match_finite_differences() {
+    let mut rng = rng(8);
+    let nh = NeoHookean::new(lame());
+    let co = Corotated::new(lame());
+    let models: [&dyn Isotropic; 2] = [&nh, &co];
+    for model in models {
+        for _ in 0..200 {
+            let s = Vec3::new(
+                uniform(&mut rng, 0.0, 2.0),
+                uniform(&mut rng, 0.0, 2.0),
+                uniform(&mut rng, -1.0, 2.0),
+            );
+            let d = random_field(&mut rng, 1)[0];
+            let (err, _) =
+                best_relative_error(&[model.dpsi(&s).dot(&d)], stress_scale(lame()), |h| {
+                    vec![(model.psi(&(s + h * d)) - model.psi(&(s - h * d))) / (2.0 * h)]
+                });
+            assert!(err < FD_TOLERANCE, "∂Ψ̂/∂σ at {s}: {err:e}");
+            let (err, _) = best_relative_error(
+                &(model.d2psi(&s) * d).iter().copied().collect::<Vec<_>>(),
+                stress_scale(lame()),
+                |h| {
+                    ((model.dpsi(&(s + h * d)) - model.dpsi(&(s - h * d))) / (2.0 * h))
+                        .iter()
+                        .copied()
+                        .collect()
+                },
+            );
+            assert!(err < FD_TOLERANCE, "∂²Ψ̂/∂σ² at {s}: {err:e}");
+        }
+    }
+}
+
+/// The closed-form pair eigenvalues stay accurate when two stretches (nearly) coincide, where
+/// the plain quotient (pᵢ − pⱼ)/(σᵢ − σⱼ) cancels catastrophically.
+#[test]
+fn pair_eigenvalues_accurate_at_repeated_stretches() {
+    let nh = NeoHookean::new(lame());
+    for base in [1.3, 0.25, 0.3, 0.2995] {
+        let scale = stress_scale(lame());
+        // At a visible gap the closed form equals the plain quotient.
+        let s = Vec3::new(base + 1e-3, base, 0.9);
+        let p = nh.dpsi(&s);
+        let (sym, _) = nh.pair_eigenvalues(&s, &p, &nh.d2psi(&s), 0, 1);
+        let quotient = (p[0] - p[1]) / (s[0] - s[1]);
+        assert!(
+            (sym - quotient).abs() <= 1e-8 * scale,
+            "base {base}: {sym} vs quotient {quotient}"
+        );
+        // At tiny or zero gaps it tends to the limit Hᵢᵢ − Hᵢⱼ, where the quotient is noise.
+        for gap in [1e-9, 1e-12, 0.0] {
+            let s = Vec3::new(base + gap, base, 0.9);
+            let h = nh.d2psi(&s);
+            let (sym, _) = nh.pair_eigenvalues(&s, &nh.dpsi(&s), &h, 0, 1);
+            let limit = h[(1, 1)] - h[(0, 1)];
+            assert!(
+                (sym - limit).abs() <= 1e-6 * scale,
+                "base {base} gap {gap}: {sym} vs {limit}"
+            );
+        }
+    }
+    // The generic default does no worse than the limit at exact repeats.
+    let s = Vec3::new(1.1, 1.1, 1.1);
+    let co = Corotated::new(lame());
+    let (sym, _) = tetsim::material::isotropic::default_pair_eigenvalues(
+        &s,
+        &co.dpsi(&s),
+        &co.d2psi(&s),
+        0,
+        1,
+    );
+    assert!((sym - 2.0 * lame().mu).abs() < 1e-9 * lame().mu);
+}
+
+fn mesh_and_rest(seed: u64) -> (ElasticBody, Vec<Vec3>) {
+    let mut rng = rng(seed);
+    let mesh = small_mesh(&mut rng);
+    let rest = mesh.positions.clone();
+    (
+        ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame()), 1000.0).unwrap(),
+        rest,
+    )
+}
+
+#[test]
+fn rest_state_has_zero_energy_and_force() {
+    for kind in ModelKind::ALL {
+        let (mut body, rest) = mesh_and_rest(11);
+        body.model = Model::new(kind, lame());
+        let mut f = vec![Vec3::zeros(); rest.len()];
+        body.add_forces(&rest, &mut f);
+        let scale = stress_scale(lame());
+        assert!(body.energy(&rest).abs() < 1e-12 * scale);
+        assert!(f.iter().all(|v| v.norm() < 1e-9 * scale), "{kind:?}");
+    }
+}
+
+#[test]
+fn rigid_motions_cost_no_energy_and_give_no_force() {
+    let mut rng = rng(12);
+    for kind in ModelKind::ALL {
+        let (mut body, rest) = mesh_and_rest(12);
+        body.model = Model::new(kind, lame());
+        for _ in 0..10 {
+            let r = rotation(&mut rng);
+            let t = 10.0 * random_field(&mut rng, 1)[0];
+            let x: Vec<Vec3> = rest.iter().map(|p| r * p + t).collect();
+            let mut f = vec![Vec3::zeros(); x.len()];
+            body.add_forces(&x, &mut f);
+            let scale = stress_scale(lame());
+            assert!(
+                body.energy(&x).abs() < 1e-11 * scale,
+                "{kind:?}: E = {}",
+                body.energy(&x)
+            );
+            assert!(
+                f.iter().all(|v| v.norm() < 1e-8 * scale),
+                "{kind:?}: rigid motion gives force"
+            );
+        }
+    }
+}
+
+#[test]
+fn forces_sum_to_zero_with_zero_torque() {
+    let mut rng = rng(13);
+    for kind in ModelKind::ALL {
+        let (mut body, rest) = mesh_and_rest(13);
+        body.model = Model::new(kind, lame());
+        for amount in [0.1, 0.4, 1.0] {
+            let x = perturbed(&mut rng, &rest, amount);
+            let mut f = vec![Vec3::zeros(); x.len()];
+            body.add_forces(&x, &mut f);
+            let total: Vec3 = f.iter().sum();
+            let torque: Vec3 = x.iter().zip(&f).map(|(p, q)| p.cross(q)).sum();
+            let scale: f64 = f.iter().map(|v| v.norm()).sum::<f64>()
+                * (1.0 + x.iter().map(|p| p.norm()).fold(0.0, f64::max));
+            assert!(total.norm() < 1e-12 * scale, "{kind:?} net force {total}");
+            assert!(
+                torque.norm() < 1e-12 * scale,
+                "{kind:?} net torque {torque}"
+            );
+        }
+    }
+}
+
+#[test]
+fn affine_deformation_gives_constant_f() {
+    let mut rng = rng(14);
+    let (body, rest) = mesh_and_rest(14);
+    let a = Mat3::identity() + 0.3 * random_matrix(&mut rng);
+    let b = random_field(&mut rng, 1)[0];
+    let x: Vec<Vec3> = rest.iter().map(|p| a * p + b).collect();
+    for t in 0..body.tet_count() {
+        assert!(
+            (body.deformation_gradient(&x, t) - a).norm() < 1e-12,
+            "tet {t}"
+        );
+    }
+}
+
+/// The convention `F = Ds·Bm`, column-major vec(F), forces as columns of H, pinned on one tet:
+/// stretching x by 10 % along x pulls vertex 1 (at X = e₁) back in −x.
+#[test]
+fn convention_is_pinned_on_one_tet() {
+    let rest = TetMesh::new(
+        vec![Vec3::zeros(), Vec3::x(), Vec3::y(), Vec3::z()],
+        vec![[0, 1, 2, 3]],
+    );
+    let body = ElasticBody::new(rest, Model::new(ModelKind::Corotated, lame()), 1000.0).unwrap();
+    let x = vec![Vec3::zeros(), 1.1 * Vec3::x(), Vec3::y(), Vec3::z()];
+    assert!(
+        (body.deformation_gradient(&x, 0) - Mat3::from_diagonal(&Vec3::new(1.1, 1.0, 1.0))).norm()
+            < 1e-15
+    );
+    let mut f = vec![Vec3::zeros(); 4];
+    body.add_forces(&x, &mut f);
+    assert!(f[1].x < 0.0 && f[0].x > 0.0);
+    assert_eq!(body.masses().iter().sum::<f64>(), 1000.0 / 6.0);
+}
+
+#[test]
+fn same_bits_on_one_and_two_threads() {
+    let mut rng = rng(15);
+    let mesh =
+        tetsim::mesh::generate::box_mesh(Vec3::zeros(), Vec3::new(4.0, 1.0, 1.0), [16, 4, 4]);
+    let x = perturbed(&mut rng, &mesh.positions, 0.05);
+    let dx = random_field(&mut rng, x.len());
+    let body = ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame()), 1000.0).unwrap();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut lin = tetsim::Linearization::new(&body, Definiteness::Projected);
+            let mut f = vec![Vec3::zeros(); x.len()];
+            let e = body.linearize_into(&x, &mut lin, &mut f);
+            let mut kdx = vec![Vec3::zeros(); x.len()];
+            body.apply_stiffness(&mut lin, &dx, &mut kdx);
+            let mut g = vec![Vec3::zeros(); x.len()];
+            body.add_forces(&x, &mut g);
+            (e.to_bits(), body.energy(&x).to_bits(), f, g, kdx)
+        })
+    };
+    assert_eq!(run(1), run(2));
+}
+
+#[test]
+fn degenerate_tets_are_all_listed() {
+    let mut mesh =
+        tetsim::mesh::generate::box_mesh(Vec3::zeros(), Vec3::new(1.0, 1.0, 1.0), [1, 1, 1]);
+    // Collapse vertex 7 onto vertex 0: every tet has the diagonal 0–7, so all six degenerate.
+    mesh.positions[7] = mesh.positions[0];
+    let err =
+        ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame()), 1000.0).unwrap_err();
+    match &err {
+        tetsim::Error::Mesh {
+            problem: tetsim::MeshProblem::Degenerate { tets },
+            ..
+        } => assert_eq!(tets, &vec![0, 1, 2, 3, 4, 5]),
+        other => panic!("unexpected {other}"),
+    }
+    assert!(err.to_string().contains("0, 1, 2, 3, 4, 5"));
+}
+
+#[test]
+fn invertible_adaptor_is_generic() {
+    // A model is usable through the adaptor on its own, outside the Model enum.
+    let m = Invertible::new(Corotated::new(lame()));
+    assert_eq!(m.energy_density(&Mat3::identity()), 0.0);
+}
