@@ -303,6 +303,38 @@ impl ElasticBody {
     }
 }
 
+impl ElasticBody {
+    /// The 3×3 diagonal blocks of K (one per vertex) from the tangents in `lin`, for Jacobi-type
+    /// preconditioners. Vertex a of a tet contributes `W·(∂P/∂F : (eⱼ ⊗ bₐ))·bₐ` to column j,
+    /// with bₐ = row a−1 of Bm (b₀ = −Σ rows). Gathered per vertex in tet order: deterministic.
+    pub fn stiffness_diagonal_blocks(&self, lin: &Linearization, out: &mut [Mat3]) {
+        assert_eq!(out.len(), self.vertex_count());
+        let inc = &self.incidence;
+        out.par_iter_mut()
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(v, block)| {
+                let mut sum = Mat3::zeros();
+                for &slot in &inc.slots[inc.offsets[v] as usize..inc.offsets[v + 1] as usize] {
+                    let (t, corner) = (slot as usize / 4, slot as usize % 4);
+                    let bm = &self.bm[t];
+                    let b: Vec3 = if corner == 0 {
+                        -(bm.row(0) + bm.row(1) + bm.row(2)).transpose()
+                    } else {
+                        bm.row(corner - 1).transpose()
+                    };
+                    for j in 0..3 {
+                        let mut df = Mat3::zeros();
+                        df.set_row(j, &b.transpose());
+                        let column = self.volume[t] * (lin.tangents[t].apply(&df) * b);
+                        sum.set_column(j, &(sum.column(j) + column));
+                    }
+                }
+                *block = sum;
+            });
+    }
+}
+
 /// The elastic forces of one tet from its stress: `H = −W·P·Bmᵀ`, columns on vertices 1–3,
 /// minus their sum on vertex 0. With `dP` in place of P it is the force differential.
 #[inline]

@@ -24,19 +24,34 @@
 //! - [`material`]: Ψ, P, dP; the principal-stretch adaptor; Neo-Hookean and corotated.
 //! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
+//! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.
+//! - [`cg`]: preconditioned conjugate gradient on any linear operator.
+//! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
+//! - [`sim`]: the simulation (state + solver), advanced frame by frame.
+//! - [`scene`]: the TOML scene contract (SPEC §10).
+//! - [`io`], [`output`]: mesh files and the run's output files.
 //! - [`error`]: typed, located errors.
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod boundary;
+pub mod cg;
 pub mod elastic;
 pub mod error;
+pub mod integrator;
+pub mod io;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod output;
+pub mod scene;
+pub mod sim;
 
 pub use elastic::{ElasticBody, Linearization};
 pub use error::{Error, MeshProblem, Result};
 pub use material::{Definiteness, Lame, Material, Model, ModelKind};
 pub use math::{Mat3, Vec3};
 pub use mesh::TetMesh;
+pub use scene::Scene;
+pub use sim::{Simulation, State};

@@ -23,15 +23,19 @@ pub use neo_hookean::NeoHookean;
 
 use crate::math::{Mat3, Vec3};
 
-/// How the stress differential treats the indefinite parts of ∂P/∂F.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// How the stress differential treats the indefinite parts of ∂P/∂F. Scene names: "projected"
+/// (alias "teran") and "exact" (alias "none").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Definiteness {
     /// The exact derivative: for derivative tests and exact-Newton experiments. K may be
     /// indefinite far from rest, and CG may then break down.
+    #[serde(alias = "none")]
     Exact,
     /// Teran et al. 2005: negative eigenvalues of the diagonal-space blocks clamped to zero per
     /// element, so K is positive semi-definite. Equal to `Exact` where that is already PSD.
     #[default]
+    #[serde(alias = "teran")]
     Projected,
 }
 
@@ -116,8 +120,9 @@ impl Lame {
     }
 }
 
-/// The models a scene can name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// The models a scene can name (`model = "neo-hookean"`, ...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ModelKind {
     /// [`NeoHookean`].
     NeoHookean,

@@ -1,0 +1,628 @@
+//! One time step (or load step) as Newton's method on the SPEC §4 system.
+//!
+//! **Backward Euler** with Rayleigh damping `f_d = −αMv − γK(x)v`, from (xⁿ, vⁿ) over h: starting
+//! from `x₀ = xⁿ + h·vⁿ` (constrained components at their prescribed values) and keeping
+//! `v_k = (x_k − xⁿ)/h`, each iterate solves
+//!
+//! ```text
+//! [ (1 + γ/h)·K(x_k) + (1/h² + α/h)·M ] dx = (1/h)·M(vⁿ − v_k) + f_el(x_k) − γ·K(x_k)·v_k − α·M·v_k + f_ext
+//! ```
+//!
+//! on the free degrees of freedom, then `x_{k+1} = x_k + dx`. K(x_k) in the damping term makes it
+//! a modified Newton method; at convergence it is the exact backward-Euler step.
+//!
+//! **Quasistatic** (no inertia): `K(x_k)·dx = f_el(x_k) + f_ext`, loads ramped over load steps.
+//!
+//! Convergence: `‖rhs‖ ≤ newton_tolerance·‖rhs₀‖` over free DOFs (relative to the step's first
+//! residual), or below an absolute floor of 1e-12 of the body's characteristic force E·ℓ²·√n,
+//! so that a body at rest takes zero iterations.
+//!
+//! **Line search.** When γ = 0 the system is the gradient of the incremental potential
+//! `Φ(x) = ½‖x − xⁿ − h·vⁿ‖²_M / h² + α‖x − xⁿ‖²_M / (2h) + E(x) − f_ext·x` (just `E − f_ext·x`
+//! when quasistatic), and a step is accepted when Φ falls (Armijo, c = 1e-4) or the residual at
+//! least halves (Φ's differences drown in rounding near convergence). With γ > 0 there is no
+//! potential and the merit is ‖rhs‖. Rejected steps are halved up to [`MAX_LINE_SEARCH_CUTS`]
+//! times.
+
+use rayon::prelude::*;
+
+use crate::cg::{
+    self, BlockJacobi, CgError, CgParams, CgWorkspace, Jacobi, LinearOperator, Preconditioner,
+    conjugate_gradient,
+};
+use crate::elastic::{ElasticBody, Linearization};
+use crate::material::Definiteness;
+use crate::math::{Mat3, Vec3};
+
+/// Step halvings the line search tries before giving up on a Newton direction.
+pub const MAX_LINE_SEARCH_CUTS: usize = 8;
+
+/// Vertices per parallel chunk in the vector updates; fixed so sums are deterministic.
+const CHUNK: usize = 2048;
+
+/// What is integrated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// Backward (implicit) Euler in time, SPEC §4.
+    #[default]
+    BackwardEuler,
+    /// Static equilibrium under loads ramped over load steps.
+    Quasistatic,
+}
+
+/// What to do when a step does not converge (SPEC §9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OnFailure {
+    /// Keep the unconverged (but finite) result, flag it in steps.csv and go on.
+    Continue,
+    /// Redo the frame with twice the substeps (load increments), up to `max_step_cuts` times;
+    /// if it still fails, continue as above with the best finite result.
+    #[default]
+    Retry,
+    /// Stop the run with an error (non-zero exit); frames written so far stay valid.
+    Stop,
+}
+
+/// The preconditioner of the linear solves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PreconditionerKind {
+    /// None (plain CG), for experiments.
+    Identity,
+    /// Diagonal of A.
+    Jacobi,
+    /// Inverse of each vertex's 3×3 diagonal block of A.
+    #[default]
+    BlockJacobi,
+}
+
+/// Every solver setting, with its unit and default (built by the scene from `[solver]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolverParams {
+    /// Backward Euler (default) or quasistatic.
+    pub integrator: Integrator,
+    /// Seconds per frame (backward Euler). Default 1/30 s.
+    pub dt: f64,
+    /// Frames (backward Euler) or load steps (quasistatic). Default 60.
+    pub frames: usize,
+    /// Time steps (load increments) per frame. Default 1.
+    pub substeps: usize,
+    /// Rayleigh stiffness damping γ, seconds: f_d = −γK(x)v. Default 0.
+    pub rayleigh_stiffness: f64,
+    /// Rayleigh mass damping α, 1/s: f_d = −αMv. Default 0.
+    pub rayleigh_mass: f64,
+    /// Newton stops at ‖rhs‖ ≤ this × the step's first ‖rhs‖. Default 1e-6.
+    pub newton_tolerance: f64,
+    /// Newton iteration cap per step. Default 20.
+    pub newton_max_iterations: usize,
+    /// CG tolerance (relative to ‖rhs‖) and cap. Defaults 1e-6 and 2000.
+    pub cg: CgParams,
+    /// Definiteness treatment of K. Default Projected (Teran 2005).
+    pub definiteness: Definiteness,
+    /// Preconditioner. Default block Jacobi (fewer CG iterations than Jacobi at the same cost
+    /// per iteration on the beams measured; see the README's figures).
+    pub preconditioner: PreconditionerKind,
+    /// Backtracking line search on (default) or off.
+    pub line_search: bool,
+    /// Failure policy. Default Retry.
+    pub on_failure: OnFailure,
+    /// How many times Retry may halve the step. Default 4 (16× substeps).
+    pub max_step_cuts: usize,
+}
+
+impl Default for SolverParams {
+    fn default() -> Self {
+        SolverParams {
+            integrator: Integrator::BackwardEuler,
+            dt: 1.0 / 30.0,
+            frames: 60,
+            substeps: 1,
+            rayleigh_stiffness: 0.0,
+            rayleigh_mass: 0.0,
+            newton_tolerance: 1e-6,
+            newton_max_iterations: 20,
+            cg: CgParams::default(),
+            definiteness: Definiteness::Projected,
+            preconditioner: PreconditionerKind::BlockJacobi,
+            line_search: true,
+            on_failure: OnFailure::Retry,
+            max_step_cuts: 4,
+        }
+    }
+}
+
+/// The problem one Newton solve works on.
+#[derive(Clone, Copy, Debug)]
+pub enum StepKind<'a> {
+    /// Backward Euler from (xⁿ, vⁿ) over h seconds.
+    Dynamic {
+        /// Positions at the start of the step.
+        xn: &'a [Vec3],
+        /// Velocities at the start of the step.
+        vn: &'a [Vec3],
+        /// Step length, s.
+        h: f64,
+    },
+    /// Static equilibrium.
+    Static,
+}
+
+/// What one Newton solve did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NewtonInfo {
+    /// Newton iterations (linear solves).
+    pub iterations: usize,
+    /// CG iterations summed over the solves.
+    pub cg_iterations: usize,
+    /// Final ‖rhs‖ over free DOFs, N.
+    pub residual: f64,
+    /// Final ‖rhs‖ / first ‖rhs‖ (0 when the first was already below the floor).
+    pub relative_residual: f64,
+    /// Whether the tolerance was met.
+    pub converged: bool,
+    /// Line-search halvings taken.
+    pub line_search_cuts: usize,
+    /// CG solves that broke down (pᵀAp ≤ 0): the step then used the iterate so far.
+    pub cg_breakdowns: usize,
+    /// CG solves that hit their iteration cap.
+    pub cg_capped: usize,
+    /// Most tets with a clamped tangent at any iterate.
+    pub clamped_tets: usize,
+    /// Elastic energy at the final iterate, J.
+    pub elastic_energy: f64,
+    /// Why it stopped without converging, in words.
+    pub failure: Option<String>,
+}
+
+/// `A = k·K + m·M` over a linearization: the Newton system as a CG operator.
+struct SystemMatrix<'a> {
+    body: &'a ElasticBody,
+    lin: &'a mut Linearization,
+    k_scale: f64,
+    m_scale: f64,
+}
+
+impl LinearOperator for SystemMatrix<'_> {
+    fn len(&self) -> usize {
+        self.body.vertex_count()
+    }
+
+    fn apply(&mut self, p: &[Vec3], out: &mut [Vec3]) {
+        self.body.apply_stiffness(self.lin, p, out);
+        let (k, m) = (self.k_scale, self.m_scale);
+        let masses = self.body.masses();
+        out.par_iter_mut()
+            .zip(p.par_iter().zip(masses.par_iter()))
+            .with_min_len(CHUNK)
+            .for_each(|(o, (p, &mass))| *o = k * *o + (m * mass) * p);
+    }
+}
+
+/// The active preconditioner, refilled each Newton iterate.
+enum Precond {
+    Identity(cg::Identity),
+    Jacobi(Jacobi),
+    BlockJacobi(BlockJacobi),
+}
+
+impl Precond {
+    fn as_dyn(&self) -> &dyn Preconditioner {
+        match self {
+            Precond::Identity(p) => p,
+            Precond::Jacobi(p) => p,
+            Precond::BlockJacobi(p) => p,
+        }
+    }
+}
+
+/// Newton's method with its preallocated workspace (one per simulation).
+pub struct Newton {
+    lin: Linearization,
+    f_el: Vec<Vec3>,
+    rhs: Vec<Vec3>,
+    dx: Vec<Vec3>,
+    kv: Vec<Vec3>,
+    x_start: Vec<Vec3>,
+    blocks: Vec<Mat3>,
+    precond: Precond,
+    cg: CgWorkspace,
+    partials: Vec<f64>,
+}
+
+/// Merit and residual of one evaluated iterate.
+#[derive(Clone, Copy, Debug)]
+struct Evaluation {
+    energy: f64,
+    potential: f64,
+    residual: f64,
+}
+
+impl Newton {
+    /// Workspace for `body`.
+    pub fn new(body: &ElasticBody, params: &SolverParams) -> Self {
+        let n = body.vertex_count();
+        let precond = match params.preconditioner {
+            PreconditionerKind::Identity => Precond::Identity(cg::Identity),
+            PreconditionerKind::Jacobi => Precond::Jacobi(Jacobi::default()),
+            PreconditionerKind::BlockJacobi => Precond::BlockJacobi(BlockJacobi::default()),
+        };
+        Newton {
+            lin: Linearization::new(body, params.definiteness),
+            f_el: vec![Vec3::zeros(); n],
+            rhs: vec![Vec3::zeros(); n],
+            dx: vec![Vec3::zeros(); n],
+            kv: vec![Vec3::zeros(); n],
+            x_start: vec![Vec3::zeros(); n],
+            blocks: vec![Mat3::zeros(); n],
+            precond,
+            cg: CgWorkspace::new(n),
+            partials: vec![0.0; n.div_ceil(CHUNK).max(1)],
+        }
+    }
+
+    /// The linearization at the last evaluated iterate (for diagnostics).
+    pub fn linearization(&self) -> &Linearization {
+        &self.lin
+    }
+
+    /// Solve one step. On entry `x` holds the initial guess with its constrained components at
+    /// their prescribed values; on exit `x` (and `v`, for dynamic steps) hold the result.
+    /// `f_ext` are the external forces at the end of the step, `free` the 0/1 DOF mask.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve(
+        &mut self,
+        body: &ElasticBody,
+        kind: StepKind<'_>,
+        f_ext: &[Vec3],
+        free: &[Vec3],
+        params: &SolverParams,
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+    ) -> NewtonInfo {
+        let mut info = NewtonInfo::default();
+        let floor = absolute_floor(body);
+        let (k_scale, m_scale) = match kind {
+            StepKind::Dynamic { h, .. } => (
+                1.0 + params.rayleigh_stiffness / h,
+                1.0 / (h * h) + params.rayleigh_mass / h,
+            ),
+            StepKind::Static => (1.0, 0.0),
+        };
+        let mut eval = self.evaluate(body, kind, f_ext, free, params, x, v);
+        let first = eval.residual;
+        info.clamped_tets = self.lin.clamped_tets();
+        loop {
+            info.residual = eval.residual;
+            info.elastic_energy = eval.energy;
+            info.relative_residual = if first > floor {
+                eval.residual / first
+            } else {
+                0.0
+            };
+            if !eval.residual.is_finite() {
+                info.failure = Some("the residual became non-finite".into());
+                break;
+            }
+            if eval.residual <= floor || eval.residual <= params.newton_tolerance * first {
+                info.converged = true;
+                break;
+            }
+            if info.iterations == params.newton_max_iterations {
+                info.failure = Some(format!(
+                    "Newton reached its cap of {} iterations at relative residual {:.2e} (tolerance {:.0e})",
+                    params.newton_max_iterations, info.relative_residual, params.newton_tolerance
+                ));
+                break;
+            }
+            info.iterations += 1;
+            let (cg_before, cuts_before) = (info.cg_iterations, info.line_search_cuts);
+            self.solve_linear(body, k_scale, m_scale, free, params, &mut info);
+            match self.line_search(body, kind, f_ext, free, params, x, v, eval, &mut info) {
+                Some(next) => {
+                    log::debug!(
+                        "Newton {}: residual {:.3e} → {:.3e}, {} CG, {} line-search cuts",
+                        info.iterations,
+                        eval.residual,
+                        next.residual,
+                        info.cg_iterations - cg_before,
+                        info.line_search_cuts - cuts_before
+                    );
+                    eval = next
+                }
+                None => {
+                    info.failure = Some(
+                        "the line search found no step that reduces the merit (the Newton direction is not a descent direction)".into(),
+                    );
+                    break;
+                }
+            }
+            info.clamped_tets = info.clamped_tets.max(self.lin.clamped_tets());
+        }
+        info
+    }
+
+    /// dx = A⁻¹·rhs by preconditioned CG (A from the current linearization).
+    fn solve_linear(
+        &mut self,
+        body: &ElasticBody,
+        k_scale: f64,
+        m_scale: f64,
+        free: &[Vec3],
+        params: &SolverParams,
+        info: &mut NewtonInfo,
+    ) {
+        if !matches!(self.precond, Precond::Identity(_)) {
+            body.stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
+            let masses = body.masses();
+            self.blocks
+                .par_iter_mut()
+                .zip(masses.par_iter())
+                .with_min_len(CHUNK)
+                .for_each(|(b, &m)| *b = k_scale * *b + Mat3::from_diagonal_element(m_scale * m));
+        }
+        match &mut self.precond {
+            Precond::Identity(_) => {}
+            Precond::Jacobi(p) => p.set_from_blocks(&self.blocks),
+            Precond::BlockJacobi(p) => p.set_from_blocks(&self.blocks),
+        }
+        self.dx.iter_mut().for_each(|d| *d = Vec3::zeros());
+        let mut a = SystemMatrix {
+            body,
+            lin: &mut self.lin,
+            k_scale,
+            m_scale,
+        };
+        let result = conjugate_gradient(
+            &mut a,
+            self.precond.as_dyn(),
+            &self.rhs,
+            &mut self.dx,
+            free,
+            &params.cg,
+            &mut self.cg,
+        );
+        match result {
+            Ok(cg_info) => {
+                info.cg_iterations += cg_info.iterations;
+                info.cg_capped += (!cg_info.converged) as usize;
+            }
+            Err(CgError::NotPositiveDefinite { info: cg_info, .. })
+            | Err(CgError::NonFinite { info: cg_info, .. }) => {
+                info.cg_iterations += cg_info.iterations;
+                info.cg_breakdowns += 1;
+                log::debug!("CG broke down after {} iterations", cg_info.iterations);
+                // The iterate so far minimises the quadratic model over the Krylov space built
+                // before the breakdown; with none, fall back to the preconditioned residual.
+                let useless = self.dx.iter().all(|d| *d == Vec3::zeros())
+                    || self.dx.iter().any(|d| !d.iter().all(|c| c.is_finite()));
+                if useless {
+                    self.precond.as_dyn().apply(&self.rhs, &mut self.dx);
+                    cg::project(&mut self.dx, free);
+                }
+            }
+        }
+    }
+
+    /// Backtracking along dx from x; evaluates (and so re-linearizes at) each trial point.
+    #[allow(clippy::too_many_arguments)]
+    fn line_search(
+        &mut self,
+        body: &ElasticBody,
+        kind: StepKind<'_>,
+        f_ext: &[Vec3],
+        free: &[Vec3],
+        params: &SolverParams,
+        x: &mut [Vec3],
+        v: &mut [Vec3],
+        current: Evaluation,
+        info: &mut NewtonInfo,
+    ) -> Option<Evaluation> {
+        self.x_start.copy_from_slice(x);
+        let slope = -cg::dot(&self.rhs, &self.dx, &mut self.partials); // ∇Φ·dx
+        let potential_merit = params.rayleigh_stiffness == 0.0 || matches!(kind, StepKind::Static);
+        let mut alpha = 1.0;
+        let mut best: Option<(f64, f64)> = None; // (merit, alpha)
+        for cut in 0..=MAX_LINE_SEARCH_CUTS {
+            set_axpy(x, &self.x_start, alpha, &self.dx);
+            let trial = self.evaluate(body, kind, f_ext, free, params, x, v);
+            let finite = trial.residual.is_finite() && trial.potential.is_finite();
+            let accepted = finite
+                && if !params.line_search {
+                    true
+                } else if potential_merit {
+                    let scale = 1e-12 * (current.potential.abs() + current.energy.abs());
+                    trial.potential <= current.potential + 1e-4 * alpha * slope + scale
+                        || trial.residual <= 0.5 * current.residual
+                } else {
+                    trial.residual <= (1.0 - 1e-4 * alpha) * current.residual
+                };
+            if accepted {
+                info.line_search_cuts += cut;
+                return Some(trial);
+            }
+            let merit = if potential_merit {
+                trial.potential
+            } else {
+                trial.residual
+            };
+            if finite && best.is_none_or(|(m, _)| merit < m) {
+                best = Some((merit, alpha));
+            }
+            alpha *= 0.5;
+        }
+        info.line_search_cuts += MAX_LINE_SEARCH_CUTS;
+        // Nothing acceptable: take the best finite trial if it improved at all, else give up.
+        let current_merit = if potential_merit {
+            current.potential
+        } else {
+            current.residual
+        };
+        match best {
+            Some((merit, alpha)) if merit < current_merit => {
+                set_axpy(x, &self.x_start, alpha, &self.dx);
+                Some(self.evaluate(body, kind, f_ext, free, params, x, v))
+            }
+            _ => {
+                x.copy_from_slice(&self.x_start);
+                self.evaluate(body, kind, f_ext, free, params, x, v);
+                None
+            }
+        }
+    }
+
+    /// Linearize at x, fill `self.rhs` (masked) and `v` (dynamic), and return the merits.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate(
+        &mut self,
+        body: &ElasticBody,
+        kind: StepKind<'_>,
+        f_ext: &[Vec3],
+        free: &[Vec3],
+        params: &SolverParams,
+        x: &[Vec3],
+        v: &mut [Vec3],
+    ) -> Evaluation {
+        let energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
+        let masses = body.masses();
+        let work = ordered_sum(&mut self.partials, x.len(), |i| f_ext[i].dot(&x[i]));
+        let mut potential = energy - work;
+        match kind {
+            StepKind::Dynamic { xn, vn, h } => {
+                let (gamma, alpha) = (params.rayleigh_stiffness, params.rayleigh_mass);
+                v.par_iter_mut()
+                    .zip(x.par_iter().zip(xn.par_iter()))
+                    .with_min_len(CHUNK)
+                    .for_each(|(v, (x, xn))| *v = (x - xn) / h);
+                if gamma != 0.0 {
+                    body.apply_stiffness(&mut self.lin, v, &mut self.kv);
+                }
+                let kv = &self.kv;
+                let f_el = &self.f_el;
+                self.rhs
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(CHUNK)
+                    .for_each(|(i, r)| {
+                        let damping = if gamma != 0.0 {
+                            gamma * kv[i]
+                        } else {
+                            Vec3::zeros()
+                        };
+                        let inertia = masses[i] * ((vn[i] - v[i]) / h - alpha * v[i]);
+                        *r = (inertia + f_el[i] - damping + f_ext[i]).component_mul(&free[i]);
+                    });
+                potential += ordered_sum(&mut self.partials, x.len(), |i| {
+                    let xhat = xn[i] + h * vn[i];
+                    let m = masses[i];
+                    0.5 * m * (x[i] - xhat).norm_squared() / (h * h)
+                        + 0.5 * alpha * m * (x[i] - xn[i]).norm_squared() / h
+                });
+            }
+            StepKind::Static => {
+                let f_el = &self.f_el;
+                self.rhs
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(CHUNK)
+                    .for_each(|(i, r)| *r = (f_el[i] + f_ext[i]).component_mul(&free[i]));
+            }
+        }
+        let residual = cg::dot(&self.rhs, &self.rhs, &mut self.partials).sqrt();
+        Evaluation {
+            energy,
+            potential,
+            residual,
+        }
+    }
+}
+
+/// Absolute residual floor: 1e-12 of the characteristic force E·ℓ²·√n (E from the material at
+/// rest), so that a body at rest is converged before any iteration.
+fn absolute_floor(body: &ElasticBody) -> f64 {
+    use crate::material::Material;
+    // The rest tangent's ∂P₁₁/∂F₁₁ = λ + 2μ stands in for E: a scale, not a measurement.
+    let mut df = Mat3::zeros();
+    df[(0, 0)] = 1.0;
+    let stiffness = body.model.stress_differential(&Mat3::identity(), &df)[(0, 0)].abs();
+    let edge = body.mesh.mean_edge_length();
+    1e-12 * stiffness * edge * edge * (body.vertex_count() as f64).sqrt()
+}
+
+/// `x = x0 + alpha·dx`.
+fn set_axpy(x: &mut [Vec3], x0: &[Vec3], alpha: f64, dx: &[Vec3]) {
+    x.par_iter_mut()
+        .zip(x0.par_iter().zip(dx.par_iter()))
+        .with_min_len(CHUNK)
+        .for_each(|(x, (x0, dx))| *x = x0 + alpha * dx);
+}
+
+/// Deterministic parallel Σ f(i) for i < n: fixed chunks, partials summed in order.
+pub fn ordered_sum(partials: &mut [f64], n: usize, f: impl Fn(usize) -> f64 + Sync) -> f64 {
+    let chunks = n.div_ceil(CHUNK);
+    partials[..chunks]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(c, s)| {
+            *s = (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).sum();
+        });
+    partials[..chunks].iter().sum()
+}
+
+/// Per-frame statistics: one row of steps.csv.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// Frame number (1-based; frame 0 is the initial state).
+    pub frame: usize,
+    /// Time at the end of the frame, s (quasistatic: the load factor).
+    pub time: f64,
+    /// Newton iterations over the frame's substeps.
+    pub newton_iterations: usize,
+    /// CG iterations over the frame's substeps.
+    pub cg_iterations: usize,
+    /// Largest final ‖rhs‖ over the substeps, N.
+    pub residual: f64,
+    /// Largest final relative residual over the substeps.
+    pub relative_residual: f64,
+    /// Whether every substep converged.
+    pub converged: bool,
+    /// Elastic energy at the end of the frame, J.
+    pub elastic_energy: f64,
+    /// Kinetic energy at the end of the frame, J.
+    pub kinetic_energy: f64,
+    /// Smallest det F at the end of the frame.
+    pub min_j: f64,
+    /// Tets with det F ≤ 0 at the end of the frame.
+    pub inverted_elements: usize,
+    /// Wall-clock seconds spent on the frame (retries included).
+    pub wall_seconds: f64,
+    /// Substeps used (more than asked when the step was cut).
+    pub substeps: usize,
+    /// Line-search halvings over the frame.
+    pub line_search_cuts: usize,
+    /// CG solves that broke down.
+    pub cg_breakdowns: usize,
+    /// CG solves that hit their cap.
+    pub cg_capped: usize,
+    /// Most tets with a clamped tangent at any iterate.
+    pub clamped_tets: usize,
+    /// Why the frame did not converge, in words.
+    pub failure: Option<String>,
+}
+
+impl StepStats {
+    /// Fold one substep's Newton result in.
+    pub fn absorb(&mut self, info: &NewtonInfo) {
+        self.newton_iterations += info.iterations;
+        self.cg_iterations += info.cg_iterations;
+        self.residual = self.residual.max(info.residual);
+        self.relative_residual = self.relative_residual.max(info.relative_residual);
+        self.converged &= info.converged;
+        self.line_search_cuts += info.line_search_cuts;
+        self.cg_breakdowns += info.cg_breakdowns;
+        self.cg_capped += info.cg_capped;
+        self.clamped_tets = self.clamped_tets.max(info.clamped_tets);
+        self.elastic_energy = info.elastic_energy;
+        if self.failure.is_none() {
+            self.failure.clone_from(&info.failure);
+        }
+    }
+}

@@ -1,0 +1,329 @@
+//! The library's front door: a [`Simulation`] owns the body, its boundary conditions, the state
+//! and the solver, and advances frame by frame, cutting the step when a frame fails (per
+//! [`OnFailure`]).
+//!
+//! ```
+//! use tetsim::{Scene, Simulation};
+//! let mut scene = Scene::default();
+//! scene.solver.frames = 2;
+//! let mut sim = Simulation::from_scene(&scene).unwrap();
+//! while !sim.is_finished() {
+//!     let stats = sim.step().unwrap();
+//!     assert!(stats.converged);
+//! }
+//! ```
+
+use std::time::Instant;
+
+use crate::boundary::{Boundary, Clock};
+use crate::elastic::ElasticBody;
+use crate::error::{Error, Result};
+use crate::integrator::{Integrator, Newton, OnFailure, SolverParams, StepKind, StepStats};
+use crate::math::Vec3;
+
+/// Positions (m), velocities (m/s) and time (s; the load factor when quasistatic).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct State {
+    /// Current positions.
+    pub x: Vec<Vec3>,
+    /// Current velocities.
+    pub v: Vec<Vec3>,
+    /// Current time.
+    pub t: f64,
+}
+
+/// A body, its boundary, its state and the solver: advance it with [`Simulation::step`].
+pub struct Simulation {
+    /// The elastic body.
+    pub body: ElasticBody,
+    /// Constraints, loads, gravity.
+    pub boundary: Boundary,
+    /// Solver settings.
+    pub params: SolverParams,
+    /// The current state.
+    pub state: State,
+    initial: Vec<Vec3>,
+    frame: usize,
+    free: Vec<Vec3>,
+    f_ext: Vec<Vec3>,
+    xn: Vec<Vec3>,
+    vn: Vec<Vec3>,
+    saved: State,
+    newton: Newton,
+}
+
+impl Simulation {
+    /// A simulation starting from `initial` (positions and velocities of every vertex). The
+    /// initial positions are also the reference that prescribed motions move.
+    pub fn new(
+        body: ElasticBody,
+        boundary: Boundary,
+        params: SolverParams,
+        initial: State,
+    ) -> Result<Self> {
+        check_params(&params)?;
+        let n = body.vertex_count();
+        if initial.x.len() != n || initial.v.len() != n {
+            return Err(Error::parameter(
+                "initial",
+                format!(
+                    "the initial state has {} positions and {} velocities for {n} vertices",
+                    initial.x.len(),
+                    initial.v.len()
+                ),
+            ));
+        }
+        if !initial
+            .x
+            .iter()
+            .chain(&initial.v)
+            .all(|p| p.iter().all(|c| c.is_finite()))
+        {
+            return Err(Error::parameter(
+                "initial",
+                "the initial state has a non-finite position or velocity",
+            ));
+        }
+        let free = boundary.free_mask(n);
+        let newton = Newton::new(&body, &params);
+        let mut state = initial;
+        // Constrained components start where their motion starts (ramp 0 is the identity, but a
+        // component fixed in place must not drift with an initial velocity).
+        for (v, m) in state.v.iter_mut().zip(&free) {
+            *v = v.component_mul(m);
+        }
+        if params.integrator == Integrator::Quasistatic {
+            state.v.iter_mut().for_each(|v| *v = Vec3::zeros());
+        }
+        Ok(Simulation {
+            initial: state.x.clone(),
+            frame: 0,
+            f_ext: vec![Vec3::zeros(); n],
+            xn: vec![Vec3::zeros(); n],
+            vn: vec![Vec3::zeros(); n],
+            saved: state.clone(),
+            free,
+            newton,
+            body,
+            boundary,
+            params,
+            state,
+        })
+    }
+
+    /// The body at rest: positions = rest positions, zero velocity.
+    pub fn rest_state(body: &ElasticBody) -> State {
+        State {
+            x: body.mesh.positions.clone(),
+            v: vec![Vec3::zeros(); body.vertex_count()],
+            t: 0.0,
+        }
+    }
+
+    /// Frames done so far (0 before the first step).
+    pub fn frame(&self) -> usize {
+        self.frame
+    }
+
+    /// True once every frame of `params.frames` is done.
+    pub fn is_finished(&self) -> bool {
+        self.frame >= self.params.frames
+    }
+
+    /// The positions at frame 0.
+    pub fn initial_positions(&self) -> &[Vec3] {
+        &self.initial
+    }
+
+    /// 0/1 mask of free DOFs per vertex.
+    pub fn free_mask(&self) -> &[Vec3] {
+        &self.free
+    }
+
+    /// Kinetic energy ½ vᵀMv, J.
+    pub fn kinetic_energy(&self) -> f64 {
+        0.5 * self
+            .body
+            .masses()
+            .iter()
+            .zip(&self.state.v)
+            .map(|(m, v)| m * v.norm_squared())
+            .sum::<f64>()
+    }
+
+    /// Advance one frame (all its substeps), retrying with smaller steps as the failure policy
+    /// allows. A frame that cannot produce a finite state is an error; under `Stop`, so is one
+    /// that does not converge. The state is untouched by a frame that errors.
+    pub fn step(&mut self) -> Result<StepStats> {
+        let frame = self.frame + 1;
+        let started = Instant::now();
+        self.saved.clone_from(&self.state);
+        let mut attempt = 0;
+        let mut stats = loop {
+            let substeps = self.params.substeps << attempt;
+            let retry_possible =
+                self.params.on_failure == OnFailure::Retry && attempt < self.params.max_step_cuts;
+            let stop_early = retry_possible || self.params.on_failure == OnFailure::Stop;
+            let (stats, finite) = self.advance(frame, substeps, stop_early);
+            if stats.converged && finite {
+                break stats;
+            }
+            let reason = stats
+                .failure
+                .clone()
+                .unwrap_or_else(|| "the state became non-finite".into());
+            if retry_possible {
+                log::warn!(
+                    "frame {frame}: {reason}; retrying with {} substeps",
+                    substeps * 2
+                );
+                self.state.clone_from(&self.saved);
+                attempt += 1;
+                continue;
+            }
+            if self.params.on_failure == OnFailure::Stop || !finite {
+                self.state.clone_from(&self.saved);
+                return Err(Error::Solve {
+                    frame,
+                    message: format!("{reason}. {}", ADVICE),
+                });
+            }
+            log::warn!(
+                "frame {frame} did not converge ({reason}); continuing with its best iterate"
+            );
+            break stats;
+        };
+        let deformation = self.body.deformation_stats(&self.state.x);
+        stats.time = self.state.t;
+        stats.kinetic_energy = self.kinetic_energy();
+        stats.min_j = deformation.min_j;
+        stats.inverted_elements = deformation.inverted;
+        stats.wall_seconds = started.elapsed().as_secs_f64();
+        self.frame = frame;
+        Ok(stats)
+    }
+
+    /// Run `substeps` steps of the frame; returns the stats and whether the state is finite.
+    fn advance(&mut self, frame: usize, substeps: usize, stop_early: bool) -> (StepStats, bool) {
+        let mut stats = StepStats {
+            frame,
+            converged: true,
+            substeps,
+            ..Default::default()
+        };
+        let p = &self.params;
+        for i in 1..=substeps {
+            let (clock, kind_is_dynamic, h, t) = match p.integrator {
+                Integrator::BackwardEuler => {
+                    let h = p.dt / substeps as f64;
+                    let t = (frame - 1) as f64 * p.dt + i as f64 * h;
+                    let clock = Clock::Time {
+                        time: t,
+                        run_duration: p.dt * p.frames as f64,
+                    };
+                    (clock, true, h, t)
+                }
+                Integrator::Quasistatic => {
+                    let s = ((frame - 1) as f64 + i as f64 / substeps as f64) / p.frames as f64;
+                    (Clock::LoadFactor(s), false, 0.0, s)
+                }
+            };
+            self.xn.copy_from_slice(&self.state.x);
+            self.vn.copy_from_slice(&self.state.v);
+            if kind_is_dynamic {
+                for ((x, xn), vn) in self.state.x.iter_mut().zip(&self.xn).zip(&self.vn) {
+                    *x = xn + h * vn;
+                }
+            }
+            self.boundary
+                .prescribe(&clock, &self.initial, &mut self.state.x);
+            self.boundary
+                .external_forces(&clock, self.body.masses(), &mut self.f_ext);
+            let kind = if kind_is_dynamic {
+                StepKind::Dynamic {
+                    xn: &self.xn,
+                    vn: &self.vn,
+                    h,
+                }
+            } else {
+                StepKind::Static
+            };
+            let info = self.newton.solve(
+                &self.body,
+                kind,
+                &self.f_ext,
+                &self.free,
+                &self.params,
+                &mut self.state.x,
+                &mut self.state.v,
+            );
+            stats.absorb(&info);
+            self.state.t = t;
+            let finite = self
+                .state
+                .x
+                .iter()
+                .chain(&self.state.v)
+                .all(|p| p.iter().all(|c| c.is_finite()));
+            if !finite {
+                return (stats, false);
+            }
+            if !info.converged && stop_early {
+                break;
+            }
+        }
+        (stats, true)
+    }
+}
+
+/// What to try when a frame fails, appended to the error.
+const ADVICE: &str = "Try more substeps or a smaller dt ([solver] substeps, dt), \
+on_failure = \"retry\" to cut the step automatically, a looser newton_tolerance, \
+or more newton_max_iterations / cg_max_iterations";
+
+/// Reject solver settings that cannot work, with the scene key in the message.
+fn check_params(p: &SolverParams) -> Result<()> {
+    let positive = |name: &str, value: f64| {
+        if value > 0.0 && value.is_finite() {
+            Ok(())
+        } else {
+            Err(Error::parameter(
+                format!("solver.{name}"),
+                format!("must be positive and finite, got {value}"),
+            ))
+        }
+    };
+    positive("dt", p.dt)?;
+    positive("newton_tolerance", p.newton_tolerance)?;
+    positive("cg_tolerance", p.cg.tolerance)?;
+    for (name, value) in [
+        ("rayleigh_stiffness", p.rayleigh_stiffness),
+        ("rayleigh_mass", p.rayleigh_mass),
+    ] {
+        if !(value >= 0.0 && value.is_finite()) {
+            return Err(Error::parameter(
+                format!("solver.{name}"),
+                format!("must be zero or positive, got {value}"),
+            ));
+        }
+    }
+    for (name, value) in [
+        ("substeps", p.substeps),
+        ("newton_max_iterations", p.newton_max_iterations),
+        ("cg_max_iterations", p.cg.max_iterations),
+    ] {
+        if value == 0 {
+            return Err(Error::parameter(
+                format!("solver.{name}"),
+                "must be at least 1",
+            ));
+        }
+    }
+    if p.max_step_cuts > 20 {
+        return Err(Error::parameter(
+            "solver.max_step_cuts",
+            "must be at most 20 (2²⁰ substeps)",
+        ));
+    }
+    Ok(())
+}
