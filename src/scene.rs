@@ -262,7 +262,7 @@ pub struct SolverSpec {
     pub cg_max_iterations: usize,
     /// "projected" (default; alias "teran") or "exact" (alias "none").
     pub definiteness: Definiteness,
-    /// "block-jacobi" (default), "jacobi" or "none".
+    /// "jacobi" (default), "block-jacobi" or "none".
     pub preconditioner: PreconditionerName,
     /// Backtracking line search. Default true.
     pub line_search: bool,
@@ -287,7 +287,7 @@ impl Default for SolverSpec {
             cg_tolerance: p.cg.tolerance,
             cg_max_iterations: p.cg.max_iterations,
             definiteness: p.definiteness,
-            preconditioner: PreconditionerName::BlockJacobi,
+            preconditioner: PreconditionerName::Jacobi,
             line_search: p.line_search,
             on_failure: OnFailureName::Retry,
             max_step_cuts: p.max_step_cuts,
@@ -310,11 +310,11 @@ pub enum IntegratorName {
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "kebab-case")]
 pub enum PreconditionerName {
-    /// Block Jacobi.
-    #[default]
-    BlockJacobi,
     /// Jacobi.
+    #[default]
     Jacobi,
+    /// Block Jacobi.
+    BlockJacobi,
     /// None.
     None,
 }
