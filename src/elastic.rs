@@ -15,6 +15,7 @@ use crate::error::{Error, Result};
 use crate::material::{Definiteness, Model, Tangent};
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
+use crate::sparse::{BlockCsr, BlockPattern};
 use crate::with_model;
 
 /// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
@@ -332,6 +333,125 @@ impl ElasticBody {
                 }
                 *block = sum;
             });
+    }
+}
+
+/// The gradient vectors bₐ of a tet's four barycentric coordinates (dF = Σₐ dxₐ ⊗ bₐ):
+/// b₁..b₃ are the rows of Bm, b₀ = −(b₁ + b₂ + b₃).
+#[inline]
+pub fn corner_gradients(bm: &Mat3) -> [Vec3; 4] {
+    let (r0, r1, r2) = (
+        bm.row(0).transpose(),
+        bm.row(1).transpose(),
+        bm.row(2).transpose(),
+    );
+    [-(r0 + r1 + r2), r0, r1, r2]
+}
+
+/// The upper blocks (a ≤ b, row-major: (0,0), (0,1), …, (3,3)) of one tet's 12×12 stiffness
+/// `K_e(a, b) = W·Σ ∂P/∂F : (eⱼ ⊗ b_b) · bₐ` (column j), from its tangent.
+pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
+    let grads = corner_gradients(bm);
+    // dP for each unit displacement (corner b, component j).
+    let mut dp = [[Mat3::zeros(); 3]; 4];
+    for (b, g) in grads.iter().enumerate() {
+        for j in 0..3 {
+            let mut df = Mat3::zeros();
+            df.set_row(j, &g.transpose());
+            dp[b][j] = tangent.apply(&df) * w;
+        }
+    }
+    let mut blocks = [Mat3::zeros(); 10];
+    let mut k = 0;
+    for a in 0..4 {
+        for b in a..4 {
+            blocks[k] = Mat3::from_columns(&[
+                dp[b][0] * grads[a],
+                dp[b][1] * grads[a],
+                dp[b][2] * grads[a],
+            ]);
+            k += 1;
+        }
+    }
+    blocks
+}
+
+/// Index of block (a, b), a ≤ b, in [`element_stiffness`]'s output.
+#[inline]
+fn upper_index(a: usize, b: usize) -> usize {
+    // Rows of the upper triangle hold 4, 3, 2, 1 blocks.
+    [0, 4, 7, 9][a] + b - a
+}
+
+/// Per-tet scratch of the assembled path: element matrices and where their blocks go.
+#[derive(Clone, Debug, Default)]
+pub struct AssemblyWork {
+    /// For each tet and (a, b), the position of block (tet[a], tet[b]) within row tet[a].
+    local: Vec<[u8; 16]>,
+    elements: Vec<[Mat3; 10]>,
+}
+
+impl ElasticBody {
+    /// The pattern of the assembled stiffness (vertex adjacency).
+    pub fn stiffness_pattern(&self) -> BlockPattern {
+        BlockPattern::from_tets(self.vertex_count(), &self.mesh.tets)
+    }
+
+    /// Assemble `A = k_scale·K + m_scale·M` (K from the tangents in `lin`, M the lumped mass)
+    /// into `a`, whose pattern must be [`ElasticBody::stiffness_pattern`]. Element matrices are
+    /// computed per tet in parallel, then every row gathers its blocks in tet order: the same
+    /// bits for any thread count.
+    pub fn assemble_system(
+        &self,
+        lin: &Linearization,
+        k_scale: f64,
+        m_scale: f64,
+        a: &mut BlockCsr,
+        work: &mut AssemblyWork,
+    ) {
+        assert_eq!(a.rows(), self.vertex_count());
+        let tets = &self.mesh.tets;
+        if work.local.len() != tets.len() {
+            work.local = tets
+                .iter()
+                .map(|tet| {
+                    std::array::from_fn(|ab| {
+                        let (row, col) = (tet[ab / 4], tet[ab % 4]);
+                        let k = a.pattern.find(row, col).expect("pattern from this mesh");
+                        (k - a.pattern.row(row).start) as u8
+                    })
+                })
+                .collect();
+            work.elements = vec![[Mat3::zeros(); 10]; tets.len()];
+        }
+        work.elements
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(t, e)| {
+                *e = element_stiffness(&lin.tangents[t], &self.bm[t], self.volume[t]);
+                e.iter_mut().for_each(|b| *b *= k_scale);
+            });
+        let (inc, local, elements, masses) =
+            (&self.incidence, &work.local, &work.elements, &self.mass);
+        a.for_each_row_mut(|i, cols, row| {
+            row.iter_mut().for_each(|b| *b = Mat3::zeros());
+            for &slot in &inc.slots[inc.offsets[i] as usize..inc.offsets[i + 1] as usize] {
+                let (t, corner) = (slot as usize / 4, slot as usize % 4);
+                for b in 0..4 {
+                    let block = if corner <= b {
+                        elements[t][upper_index(corner, b)]
+                    } else {
+                        elements[t][upper_index(b, corner)].transpose()
+                    };
+                    row[local[t][4 * corner + b] as usize] += block;
+                }
+            }
+            let d = cols
+                .binary_search(&(i as u32))
+                .expect("the pattern holds the diagonal");
+            row[d] += Mat3::from_diagonal_element(m_scale * masses[i]);
+        });
     }
 }
 

@@ -24,6 +24,8 @@
 //! potential and the merit is ‖rhs‖. Rejected steps are halved up to [`MAX_LINE_SEARCH_CUTS`]
 //! times.
 
+use std::time::Instant;
+
 use rayon::prelude::*;
 
 use crate::cg::{
@@ -174,6 +176,28 @@ pub struct NewtonInfo {
     pub failure: Option<String>,
     /// ‖rhs‖ at every iterate, first to last (for convergence studies).
     pub history: Vec<f64>,
+    /// Where the time went.
+    pub timings: Timings,
+}
+
+/// Wall-clock seconds by phase, for `tetsim bench` and tuning.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timings {
+    /// Forces, energy and tangents (one SVD per tet per evaluation, line-search trials included).
+    pub evaluate: f64,
+    /// Preconditioner setup (and matrix assembly, on assembled paths).
+    pub preconditioner: f64,
+    /// Conjugate gradient.
+    pub cg: f64,
+}
+
+impl Timings {
+    /// Add another's times.
+    pub fn add(&mut self, other: &Timings) {
+        self.evaluate += other.evaluate;
+        self.preconditioner += other.preconditioner;
+        self.cg += other.cg;
+    }
 }
 
 /// `A = k·K + m·M` over a linearization: the Newton system as a CG operator.
@@ -229,6 +253,7 @@ pub struct Newton {
     precond: Precond,
     cg: CgWorkspace,
     partials: Vec<f64>,
+    timings: Timings,
 }
 
 /// Merit and residual of one evaluated iterate.
@@ -259,6 +284,7 @@ impl Newton {
             precond,
             cg: CgWorkspace::new(n),
             partials: vec![0.0; n.div_ceil(CHUNK).max(1)],
+            timings: Timings::default(),
         }
     }
 
@@ -282,6 +308,7 @@ impl Newton {
         v: &mut [Vec3],
     ) -> NewtonInfo {
         let mut info = NewtonInfo::default();
+        self.timings = Timings::default();
         let floor = absolute_floor(body);
         let (k_scale, m_scale) = match kind {
             StepKind::Dynamic { h, .. } => (
@@ -341,6 +368,7 @@ impl Newton {
             }
             info.clamped_tets = info.clamped_tets.max(self.lin.clamped_tets());
         }
+        info.timings = self.timings;
         info
     }
 
@@ -354,6 +382,7 @@ impl Newton {
         params: &SolverParams,
         info: &mut NewtonInfo,
     ) {
+        let started = Instant::now();
         if !matches!(self.precond, Precond::Identity(_)) {
             body.stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
             let masses = body.masses();
@@ -369,6 +398,8 @@ impl Newton {
             Precond::BlockJacobi(p) => p.set_from_blocks(&self.blocks),
         }
         self.dx.iter_mut().for_each(|d| *d = Vec3::zeros());
+        let cg_started = Instant::now();
+        self.timings.preconditioner += cg_started.duration_since(started).as_secs_f64();
         let mut a = SystemMatrix {
             body,
             lin: &mut self.lin,
@@ -384,6 +415,7 @@ impl Newton {
             &params.cg,
             &mut self.cg,
         );
+        self.timings.cg += cg_started.elapsed().as_secs_f64();
         match result {
             Ok(cg_info) => {
                 info.cg_iterations += cg_info.iterations;
@@ -485,6 +517,7 @@ impl Newton {
         x: &[Vec3],
         v: &mut [Vec3],
     ) -> Evaluation {
+        let started = Instant::now();
         let energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
         let masses = body.masses();
         let work = ordered_sum(&mut self.partials, x.len(), |i| f_ext[i].dot(&x[i]));
@@ -531,6 +564,7 @@ impl Newton {
             }
         }
         let residual = cg::dot(&self.rhs, &self.rhs, &mut self.partials).sqrt();
+        self.timings.evaluate += started.elapsed().as_secs_f64();
         Evaluation {
             energy,
             potential,
@@ -610,6 +644,8 @@ pub struct StepStats {
     pub clamped_tets: usize,
     /// Why the frame did not converge, in words.
     pub failure: Option<String>,
+    /// Time by phase over the frame (not written to steps.csv: it is not deterministic).
+    pub timings: Timings,
 }
 
 impl StepStats {
@@ -625,6 +661,7 @@ impl StepStats {
         self.cg_capped += info.cg_capped;
         self.clamped_tets = self.clamped_tets.max(info.clamped_tets);
         self.elastic_energy = info.elastic_energy;
+        self.timings.add(&info.timings);
         if self.failure.is_none() {
             self.failure.clone_from(&info.failure);
         }

@@ -47,6 +47,7 @@ pub mod mesh;
 pub mod output;
 pub mod scene;
 pub mod sim;
+pub mod sparse;
 
 pub use elastic::{ElasticBody, Linearization};
 pub use error::{Error, MeshProblem, Result};
