@@ -9,6 +9,9 @@
 //! atomics, no races, and the same bits for any number of threads. Sums of energies go over
 //! fixed-size chunks added in order.
 
+// Kernels index small fixed arrays (corners, components) by position: clearer than iterators.
+#![allow(clippy::needless_range_loop)]
+
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
