@@ -285,6 +285,15 @@ impl ElasticBody {
         lin.chunk_energy.iter().sum()
     }
 
+    /// Bytes one matrix-free stiffness product moves (a traffic model for roofline figures): per
+    /// tet its tangent, Bm, W and vertex indices, the per-tet buffer written then read, and the
+    /// incidence slots; per vertex the input read, the output written and the incidence offsets.
+    pub fn matrix_free_bytes_per_product(&self) -> f64 {
+        let per_tet = std::mem::size_of::<Tangent>() + 72 + 8 + 32 + 2 * 96 + 16;
+        let per_vertex = 24 + 24 + 4;
+        (per_tet * self.tet_count() + per_vertex * self.vertex_count()) as f64
+    }
+
     /// `out = K·dx` with K = ∂²E/∂x² frozen in `lin` (the force differential is −K·dx).
     pub fn apply_stiffness(&self, lin: &mut Linearization, dx: &[Vec3], out: &mut [Vec3]) {
         assert_eq!(dx.len(), self.vertex_count());

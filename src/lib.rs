@@ -30,11 +30,13 @@
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
 //! - [`io`], [`output`]: mesh files and the run's output files.
+//! - [`sparse`]: assembled block-sparse matrices; [`bench`]: the `tetsim bench` workload.
 //! - [`error`]: typed, located errors.
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod bench;
 pub mod boundary;
 pub mod cg;
 pub mod elastic;

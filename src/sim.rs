@@ -140,6 +140,11 @@ impl Simulation {
         &self.free
     }
 
+    /// Bytes the CG operator moves per product (a model; see `tetsim bench`).
+    pub fn operator_bytes_per_product(&self) -> f64 {
+        self.body.matrix_free_bytes_per_product()
+    }
+
     /// Kinetic energy ½ vᵀMv, J.
     pub fn kinetic_energy(&self) -> f64 {
         0.5 * self

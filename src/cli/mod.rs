@@ -1,5 +1,6 @@
 //! Subcommands: argument structs and dispatch, no physics.
 
+mod bench;
 mod run;
 
 use std::process::ExitCode;
@@ -27,6 +28,8 @@ pub struct Cli {
 enum Command {
     /// Run a scene (no SCENE: the built-in default scene) and write frames.
     Run(run::RunArgs),
+    /// Time the cantilever workload of issue 8 at several mesh sizes.
+    Bench(bench::BenchArgs),
 }
 
 /// Log level from -q/-v (RUST_LOG overrides).
@@ -52,5 +55,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     }
     match cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
+        Command::Bench(args) => bench::run(args, cli.quiet),
     }
 }

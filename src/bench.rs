@@ -1,0 +1,316 @@
+//! `tetsim bench`: the issue-8 cantilever workload at several mesh sizes, with the figures that
+//! say where time goes and how close the linear solve runs to the memory-bandwidth roof.
+//!
+//! Workload (fixed so figures compare across versions and against VegaFEM): beam
+//! [0,4]×[0,1]×[0,1] m of 4n×n×n Kuhn cubes, x = 0 fixed, gravity (0, −9.81, 0), ρ = 1000,
+//! Neo-Hookean E = 1e6 Pa, ν = 0.3, Rayleigh γ = 0.01, h = 1/30 s, Newton relative tolerance
+//! 1e-4. Bytes per CG iteration are a model of the traffic (operator data once per product plus
+//! the CG vector passes), documented at [`cg_vector_bytes_per_vertex`]; achieved GB/s divides it by
+//! the measured CG time, and the roofline ratio compares that with a STREAM triad measured in the
+//! same process.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::error::Result;
+use crate::scene::Scene;
+use crate::sim::Simulation;
+
+/// VegaFEM on this machine's kind, as issue 8 quotes it: (n, seconds per frame, CG iterations
+/// per Newton iteration).
+pub const VEGAFEM: [(usize, f64, f64); 3] =
+    [(6, 0.14, 146.0), (12, 2.04, 300.0), (20, 15.5, 522.0)];
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct BenchParams {
+    /// Mesh sizes n (4n×n×n cubes).
+    pub sizes: Vec<usize>,
+    /// Frames per run (the workload has 30).
+    pub frames: usize,
+    /// Runs per size; the median is reported.
+    pub repeats: usize,
+    /// Extra `[solver]` lines appended to the workload scene (e.g. `preconditioner = "amg"`).
+    pub solver_overrides: String,
+}
+
+impl Default for BenchParams {
+    fn default() -> Self {
+        BenchParams {
+            sizes: vec![6, 12, 20],
+            frames: 30,
+            repeats: 3,
+            solver_overrides: String::new(),
+        }
+    }
+}
+
+/// Figures for one mesh size.
+#[derive(Clone, Debug, Serialize)]
+pub struct SizeReport {
+    /// n.
+    pub n: usize,
+    /// Tets.
+    pub tets: usize,
+    /// Vertices.
+    pub vertices: usize,
+    /// Median over repeats of the mean wall seconds per frame.
+    pub seconds_per_frame: f64,
+    /// Fastest repeat's seconds per frame.
+    pub seconds_per_frame_min: f64,
+    /// Newton iterations per frame.
+    pub newton_per_frame: f64,
+    /// CG iterations per Newton iteration.
+    pub cg_per_newton: f64,
+    /// Share of the time in forces and tangents (SVDs).
+    pub share_evaluate: f64,
+    /// Share in preconditioner setup and matrix assembly.
+    pub share_preconditioner: f64,
+    /// Share in CG.
+    pub share_cg: f64,
+    /// Everything else (output is not written by the bench).
+    pub share_other: f64,
+    /// CG seconds per iteration per tet, in ns.
+    pub ns_per_tet_per_cg_iteration: f64,
+    /// Modelled bytes moved per tet per CG iteration.
+    pub bytes_per_tet_per_cg_iteration: f64,
+    /// Those bytes over the measured CG time, GB/s.
+    pub achieved_gb_per_s: f64,
+    /// achieved / STREAM triad.
+    pub roofline_ratio: f64,
+    /// Resident memory at the end of the run, MB.
+    pub resident_mb: f64,
+    /// VegaFEM seconds per frame over ours, where issue 8 gives a figure.
+    pub speedup_vs_vegafem: Option<f64>,
+    /// Whether every frame converged.
+    pub all_converged: bool,
+}
+
+/// The whole bench.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    /// tetsim version.
+    pub version: String,
+    /// Worker threads.
+    pub threads: usize,
+    /// STREAM triad bandwidth, GB/s (best of 5, all threads).
+    pub stream_triad_gb_per_s: f64,
+    /// Per size.
+    pub sizes: Vec<SizeReport>,
+    /// The solver overrides used.
+    pub solver_overrides: String,
+}
+
+/// The workload scene for size n.
+pub fn workload_scene(n: usize, frames: usize, solver_overrides: &str) -> Result<Scene> {
+    let text = format!(
+        r#"
+gravity = [0.0, -9.81, 0.0]
+[mesh]
+generator = {{ box = {{ min = [0.0, 0.0, 0.0], max = [4.0, 1.0, 1.0], cells = [{}, {n}, {n}] }} }}
+[material]
+model = "neo-hookean"
+youngs_modulus = 1.0e6
+poisson_ratio = 0.3
+density = 1000.0
+[[fixed]]
+region = {{ box = {{ min = [-0.001, -1.0, -1.0], max = [0.001, 2.0, 2.0] }} }}
+[solver]
+dt = 0.033333333333333333
+frames = {frames}
+rayleigh_stiffness = 0.01
+newton_tolerance = 1e-4
+{solver_overrides}
+"#,
+        4 * n
+    );
+    Scene::parse(
+        &text,
+        std::path::Path::new("<bench workload>"),
+        std::path::Path::new("."),
+    )
+}
+
+/// CG's own vector traffic per iteration, bytes per vertex: the product's input and output
+/// (2 passes), the mass term and projection of the product (3), pᵀAp (2), the x and r updates
+/// (5), ‖r‖ (1), the preconditioner (3), rᵀz (2) and the p update (3): 21 passes of 24 bytes,
+/// plus the 0/1 mask read twice.
+pub fn cg_vector_bytes_per_vertex() -> f64 {
+    21.0 * 24.0 + 2.0 * 24.0
+}
+
+/// STREAM triad a = b + s·c on three arrays of 2²⁵ f64 (768 MB), best of 5, in GB/s
+/// (24 bytes per element, the STREAM convention).
+pub fn stream_triad() -> f64 {
+    let n = 1 << 25;
+    let b = vec![1.0f64; n];
+    let c = vec![2.0f64; n];
+    let mut a = vec![0.0f64; n];
+    let s = 3.0;
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let started = Instant::now();
+        a.par_chunks_mut(1 << 16)
+            .zip(b.par_chunks(1 << 16).zip(c.par_chunks(1 << 16)))
+            .for_each(|(a, (b, c))| {
+                for i in 0..a.len() {
+                    a[i] = b[i] + s * c[i];
+                }
+            });
+        best = best.min(started.elapsed().as_secs_f64());
+    }
+    std::hint::black_box(&a);
+    24.0 * n as f64 / best / 1e9
+}
+
+/// Resident set size of this process, MB (Linux; 0 elsewhere).
+pub fn resident_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let m = values.len() / 2;
+    if values.len() % 2 == 1 {
+        values[m]
+    } else {
+        0.5 * (values[m - 1] + values[m])
+    }
+}
+
+/// Run the bench; `progress` hears one line per finished run.
+pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<BenchReport> {
+    let stream = stream_triad();
+    progress(&format!("STREAM triad: {stream:.1} GB/s"));
+    let mut sizes = Vec::new();
+    for &n in &params.sizes {
+        let scene = workload_scene(n, params.frames, &params.solver_overrides)?;
+        let mut per_frame = Vec::new();
+        let (mut newton, mut cg, mut frames) = (0usize, 0usize, 0usize);
+        let mut timings = crate::integrator::Timings::default();
+        let mut wall = 0.0;
+        let mut all_converged = true;
+        let mut report_mem = 0.0;
+        let (mut tets, mut vertices, mut operator_bytes_per_tet) = (0, 0, 0.0);
+        for repeat in 0..params.repeats {
+            let mut sim = Simulation::from_scene(&scene)?;
+            tets = sim.body.tet_count();
+            vertices = sim.body.vertex_count();
+            operator_bytes_per_tet = sim.operator_bytes_per_product() / tets as f64;
+            let started = Instant::now();
+            while !sim.is_finished() {
+                let stats = sim.step()?;
+                all_converged &= stats.converged;
+                if repeat == 0 {
+                    newton += stats.newton_iterations;
+                    cg += stats.cg_iterations;
+                    frames += 1;
+                    timings.add(&stats.timings);
+                }
+            }
+            let seconds = started.elapsed().as_secs_f64();
+            if repeat == 0 {
+                wall = seconds;
+                report_mem = resident_mb();
+            }
+            per_frame.push(seconds / params.frames as f64);
+            progress(&format!(
+                "n = {n}: run {} of {}: {:.3} s/frame",
+                repeat + 1,
+                params.repeats,
+                seconds / params.frames as f64
+            ));
+        }
+        let fastest = per_frame.iter().copied().fold(f64::INFINITY, f64::min);
+        let seconds_per_frame = median(&mut per_frame);
+        let cg_seconds = timings.cg;
+        let bytes_per_tet =
+            operator_bytes_per_tet + cg_vector_bytes_per_vertex() * vertices as f64 / tets as f64;
+        let achieved = bytes_per_tet * tets as f64 * cg as f64 / cg_seconds.max(1e-12) / 1e9;
+        let vega = VEGAFEM
+            .iter()
+            .find(|v| v.0 == n)
+            .map(|v| v.1 / seconds_per_frame);
+        sizes.push(SizeReport {
+            n,
+            tets,
+            vertices,
+            seconds_per_frame,
+            seconds_per_frame_min: fastest,
+            newton_per_frame: newton as f64 / frames.max(1) as f64,
+            cg_per_newton: cg as f64 / newton.max(1) as f64,
+            share_evaluate: timings.evaluate / wall,
+            share_preconditioner: timings.preconditioner / wall,
+            share_cg: timings.cg / wall,
+            share_other: (1.0 - (timings.evaluate + timings.preconditioner + timings.cg) / wall)
+                .max(0.0),
+            ns_per_tet_per_cg_iteration: cg_seconds / (cg.max(1) as f64 * tets as f64) * 1e9,
+            bytes_per_tet_per_cg_iteration: bytes_per_tet,
+            achieved_gb_per_s: achieved,
+            roofline_ratio: achieved / stream,
+            resident_mb: report_mem,
+            speedup_vs_vegafem: vega,
+            all_converged,
+        });
+    }
+    Ok(BenchReport {
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        threads: rayon::current_num_threads(),
+        stream_triad_gb_per_s: stream,
+        sizes,
+        solver_overrides: params.solver_overrides.clone(),
+    })
+}
+
+impl BenchReport {
+    /// The human-readable table.
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "tetsim {} bench, {} threads, STREAM triad {:.1} GB/s{}\n",
+            self.version,
+            self.threads,
+            self.stream_triad_gb_per_s,
+            if self.solver_overrides.trim().is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ", solver: {}",
+                    self.solver_overrides.trim().replace('\n', "; ")
+                )
+            }
+        );
+        s.push_str("   n      tets  s/frame  Newton/fr  CG/Newton  eval%  prec%   CG%  other%  ns/tet/it  B/tet/it   GB/s  roof  RSS MB  ×VegaFEM\n");
+        for r in &self.sizes {
+            s.push_str(&format!(
+                "{:>4} {:>9} {:>8.3} {:>10.2} {:>10.1} {:>6.1} {:>6.1} {:>5.1} {:>7.1} {:>10.2} {:>9.0} {:>6.1} {:>5.2} {:>7.0} {:>9}{}\n",
+                r.n,
+                r.tets,
+                r.seconds_per_frame,
+                r.newton_per_frame,
+                r.cg_per_newton,
+                100.0 * r.share_evaluate,
+                100.0 * r.share_preconditioner,
+                100.0 * r.share_cg,
+                100.0 * r.share_other,
+                r.ns_per_tet_per_cg_iteration,
+                r.bytes_per_tet_per_cg_iteration,
+                r.achieved_gb_per_s,
+                r.roofline_ratio,
+                r.resident_mb,
+                r.speedup_vs_vegafem.map_or("-".to_string(), |x| format!("{x:.2}")),
+                if r.all_converged { "" } else { "  (some frames did not converge)" }
+            ));
+        }
+        s
+    }
+}

@@ -1,0 +1,57 @@
+//! `tetsim bench`: the issue-8 cantilever workload at several sizes (see `tetsim::bench`).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use tetsim::bench::{self, BenchParams};
+
+/// Arguments of `tetsim bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Mesh sizes n (4n×n×n cubes, 24n³ tets).
+    #[arg(long, value_delimiter = ',', default_value = "6,12,20")]
+    pub sizes: Vec<usize>,
+    /// Frames per run (the workload has 30).
+    #[arg(long, default_value_t = 30)]
+    pub frames: usize,
+    /// Runs per size (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Extra `[solver]` settings, e.g. --solver 'preconditioner = "block-jacobi"'.
+    #[arg(long, default_value = "")]
+    pub solver: String,
+    /// Print JSON instead of the table (to stdout), for comparing runs.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write the JSON report to this file.
+    #[arg(long)]
+    pub save: Option<PathBuf>,
+}
+
+pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        args.repeats > 0 && args.frames > 0,
+        "--repeats and --frames must be at least 1"
+    );
+    let params = BenchParams {
+        sizes: args.sizes,
+        frames: args.frames,
+        repeats: args.repeats,
+        solver_overrides: args.solver,
+    };
+    let report = bench::run(&params, |line| {
+        if !quiet {
+            eprintln!("{line}");
+        }
+    })?;
+    let json = serde_json::to_string_pretty(&report)?;
+    if let Some(path) = &args.save {
+        std::fs::write(path, &json).map_err(|e| tetsim::Error::io(path, e))?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        print!("{}", report.table());
+    }
+    Ok(ExitCode::SUCCESS)
+}
