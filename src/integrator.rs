@@ -106,6 +106,9 @@ pub struct SolverParams {
     pub preconditioner: PreconditionerKind,
     /// Backtracking line search on (default) or off.
     pub line_search: bool,
+    /// Inexact Newton: each CG solve only as tight as Newton's progress warrants (Eisenstat-
+    /// Walker forcing terms between 0.1 and `cg.tolerance`). Default on.
+    pub inexact_newton: bool,
     /// Failure policy. Default Retry.
     pub on_failure: OnFailure,
     /// How many times Retry may halve the step. Default 4 (16× substeps).
@@ -127,6 +130,7 @@ impl Default for SolverParams {
             definiteness: Definiteness::Projected,
             preconditioner: PreconditionerKind::Jacobi,
             line_search: true,
+            inexact_newton: true,
             on_failure: OnFailure::Retry,
             max_step_cuts: 4,
         }
@@ -319,6 +323,7 @@ impl Newton {
         };
         let mut eval = self.evaluate(body, kind, f_ext, free, params, x, v);
         let first = eval.residual;
+        let mut eta = FORCING_MAX;
         info.clamped_tets = self.lin.clamped_tets();
         loop {
             info.history.push(eval.residual);
@@ -346,7 +351,12 @@ impl Newton {
             }
             info.iterations += 1;
             let (cg_before, cuts_before) = (info.cg_iterations, info.line_search_cuts);
-            self.solve_linear(body, k_scale, m_scale, free, params, &mut info);
+            eta = forcing_term(params, &info.history, eta, first, floor);
+            let cg_params = CgParams {
+                tolerance: eta,
+                max_iterations: params.cg.max_iterations,
+            };
+            self.solve_linear(body, k_scale, m_scale, free, &cg_params, &mut info);
             match self.line_search(body, kind, f_ext, free, params, x, v, eval, &mut info) {
                 Some(next) => {
                     log::debug!(
@@ -379,7 +389,7 @@ impl Newton {
         k_scale: f64,
         m_scale: f64,
         free: &[Vec3],
-        params: &SolverParams,
+        cg_params: &CgParams,
         info: &mut NewtonInfo,
     ) {
         let started = Instant::now();
@@ -412,7 +422,7 @@ impl Newton {
             &self.rhs,
             &mut self.dx,
             free,
-            &params.cg,
+            cg_params,
             &mut self.cg,
         );
         self.timings.cg += cg_started.elapsed().as_secs_f64();
@@ -572,6 +582,44 @@ impl Newton {
         }
     }
 }
+
+/// CG tolerance η for the next Newton iterate (inexact Newton; Eisenstat & Walker 1996,
+/// choice 2 with γ = 0.9, α = 2): η = 0.9·(‖rₖ‖/‖rₖ₋₁‖)², kept from falling faster than
+/// 0.9·η_prev² once that exceeds 0.1, capped at [`FORCING_MAX`]; never tighter than half of
+/// what would reach the Newton target in this step (no oversolving at the end), nor than
+/// `cg.tolerance`. With `inexact_newton` off, η = `cg.tolerance`.
+fn forcing_term(
+    params: &SolverParams,
+    history: &[f64],
+    previous: f64,
+    first: f64,
+    floor: f64,
+) -> f64 {
+    if !params.inexact_newton {
+        return params.cg.tolerance;
+    }
+    let r = *history.last().unwrap_or(&first);
+    let mut eta = match history {
+        [.., before, last] => {
+            let ratio = last / before.max(f64::MIN_POSITIVE);
+            let eta = 0.9 * ratio * ratio;
+            let safeguard = 0.9 * previous * previous;
+            if safeguard > 0.1 {
+                eta.max(safeguard)
+            } else {
+                eta
+            }
+        }
+        _ => FORCING_MAX,
+    };
+    eta = eta.min(FORCING_MAX);
+    let target = (params.newton_tolerance * first).max(floor);
+    eta = eta.max(0.5 * target / r.max(f64::MIN_POSITIVE));
+    eta.clamp(params.cg.tolerance, FORCING_MAX.max(params.cg.tolerance))
+}
+
+/// The loosest CG tolerance inexact Newton uses.
+const FORCING_MAX: f64 = 0.1;
 
 /// Absolute residual floor: 1e-12 of the characteristic force E·ℓ²·√n (E from the material at
 /// rest), so that a body at rest is converged before any iteration.

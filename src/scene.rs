@@ -266,6 +266,8 @@ pub struct SolverSpec {
     pub preconditioner: PreconditionerName,
     /// Backtracking line search. Default true.
     pub line_search: bool,
+    /// Inexact Newton (CG only as tight as the Newton target needs). Default true.
+    pub inexact_newton: bool,
     /// "retry" (default), "continue" or "stop".
     pub on_failure: OnFailureName,
     /// Step halvings allowed by "retry". Default 4.
@@ -289,6 +291,7 @@ impl Default for SolverSpec {
             definiteness: p.definiteness,
             preconditioner: PreconditionerName::Jacobi,
             line_search: p.line_search,
+            inexact_newton: p.inexact_newton,
             on_failure: OnFailureName::Retry,
             max_step_cuts: p.max_step_cuts,
         }
@@ -541,6 +544,7 @@ impl Scene {
                 PreconditionerName::None => PreconditionerKind::Identity,
             },
             line_search: s.line_search,
+            inexact_newton: s.inexact_newton,
             on_failure: match s.on_failure {
                 OnFailureName::Retry => OnFailure::Retry,
                 OnFailureName::Continue => OnFailure::Continue,
