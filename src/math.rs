@@ -38,57 +38,52 @@ const MAX_SWEEPS: usize = 12;
 /// Eigen-decomposition of a symmetric 3×3 matrix `a = Q · diag(λ) · Qᵀ`, eigenvalues sorted in
 /// descending order, det Q = +1. The matrix must be symmetric.
 pub fn sym_eigen3(a: &Mat3) -> (Vec3, Mat3) {
-    let mut m = *a;
+    // The six distinct entries as scalars: each rotation touches each once.
+    let mut d = [a[(0, 0)], a[(1, 1)], a[(2, 2)]];
+    let mut off = [a[(0, 1)], a[(0, 2)], a[(1, 2)]]; // (0,1), (0,2), (1,2)
     let mut q = Mat3::identity();
-    let scale = m.abs().max();
+    let scale = d
+        .iter()
+        .chain(off.iter())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
     if scale == 0.0 || !scale.is_finite() {
-        return (m.diagonal(), q);
+        return sort_descending(Vec3::from(d), q);
     }
+    let tolerance = f64::EPSILON * 1e-3 * scale;
     for _ in 0..MAX_SWEEPS {
-        let off = m[(0, 1)].abs() + m[(0, 2)].abs() + m[(1, 2)].abs();
-        if off <= f64::EPSILON * 1e-3 * scale {
+        if off[0].abs() + off[1].abs() + off[2].abs() <= tolerance {
             break;
         }
-        for (p, r) in [(0, 1), (0, 2), (1, 2)] {
-            jacobi_rotate(&mut m, &mut q, p, r);
+        // Rotations in the planes (p, r); `pr` indexes entry (p, r) in `off`, `pk` and `rk` the
+        // entries coupling p and r to the third index.
+        for (p, r, pr, pk, rk) in [(0, 1, 0, 1, 2), (0, 2, 1, 0, 2), (1, 2, 2, 0, 1)] {
+            let apr = off[pr];
+            if apr == 0.0 {
+                continue;
+            }
+            let theta = (d[r] - d[p]) / (2.0 * apr);
+            // t = tan φ, the smaller root of t² + 2θt − 1 = 0, for the smallest rotation.
+            let t = if theta.is_finite() {
+                theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+            } else {
+                0.0
+            };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            d[p] -= t * apr;
+            d[r] += t * apr;
+            off[pr] = 0.0;
+            let (apk, ark) = (off[pk], off[rk]);
+            off[pk] = c * apk - s * ark;
+            off[rk] = s * apk + c * ark;
+            for row in 0..3 {
+                let (qp, qr) = (q[(row, p)], q[(row, r)]);
+                q[(row, p)] = c * qp - s * qr;
+                q[(row, r)] = s * qp + c * qr;
+            }
         }
     }
-    sort_descending(m.diagonal(), q)
-}
-
-/// One exact Jacobi rotation annihilating `m[(p, r)]`; `q` accumulates the rotations.
-fn jacobi_rotate(m: &mut Mat3, q: &mut Mat3, p: usize, r: usize) {
-    let apr = m[(p, r)];
-    if apr == 0.0 {
-        return;
-    }
-    let theta = (m[(r, r)] - m[(p, p)]) / (2.0 * apr);
-    // t = tan(φ), the smaller root of t² + 2θt − 1 = 0, for the smallest rotation.
-    let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-    let t = if theta.is_finite() { t } else { 0.0 };
-    let c = 1.0 / (t * t + 1.0).sqrt();
-    let s = t * c;
-    // m ← Gᵀ m G with G the rotation in the (p, r) plane.
-    for k in 0..3 {
-        let mkp = m[(k, p)];
-        let mkr = m[(k, r)];
-        m[(k, p)] = c * mkp - s * mkr;
-        m[(k, r)] = s * mkp + c * mkr;
-    }
-    for k in 0..3 {
-        let mpk = m[(p, k)];
-        let mrk = m[(r, k)];
-        m[(p, k)] = c * mpk - s * mrk;
-        m[(r, k)] = s * mpk + c * mrk;
-    }
-    m[(p, r)] = 0.0;
-    m[(r, p)] = 0.0;
-    for k in 0..3 {
-        let qkp = q[(k, p)];
-        let qkr = q[(k, r)];
-        q[(k, p)] = c * qkp - s * qkr;
-        q[(k, r)] = s * qkp + c * qkr;
-    }
+    sort_descending(Vec3::from(d), q)
 }
 
 /// Sort eigenpairs by descending eigenvalue and make the eigenvector basis a proper rotation.
@@ -133,7 +128,9 @@ pub fn svd_rv(f: &Mat3) -> Svd {
 fn givens_rows(b: &mut Mat3, ut: &mut Mat3, col: usize, p: usize, r: usize) {
     let x = b[(p, col)];
     let y = b[(r, col)];
-    let h = x.hypot(y);
+    // sqrt(x² + y²) rather than hypot: F's entries never come near overflow, and hypot is a
+    // slow library call.
+    let h = (x * x + y * y).sqrt();
     if h == 0.0 {
         return;
     }
