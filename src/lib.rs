@@ -23,6 +23,7 @@
 //! - [`math`]: rotation-variant SVD, symmetric eigensolver, PSD clamp.
 //! - [`material`]: Ψ, P, dP; the principal-stretch adaptor; Neo-Hookean and corotated.
 //! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
+//! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`error`]: typed, located errors.
 
@@ -31,12 +32,14 @@
 
 pub mod elastic;
 pub mod error;
+pub mod io;
 pub mod material;
 pub mod math;
 pub mod mesh;
 
 pub use elastic::{ElasticBody, Linearization};
 pub use error::{Error, MeshProblem, Result};
+pub use io::{MeshRead, read_mesh, write_mesh};
 pub use material::{Definiteness, Lame, Material, Model, ModelKind};
 pub use math::{Mat3, Vec3};
 pub use mesh::TetMesh;
