@@ -132,7 +132,7 @@ pub struct Diagnosis {
     pub open_edges: usize,
     /// V − E + F of the boundary surface (2 per closed sphere-like piece, 0 for a torus).
     pub euler_characteristic: i64,
-    /// Smallest tet altitude 3V/A_max, m.
+    /// Smallest altitude 3V/A_max of a non-degenerate tet, m (∞ when there is none).
     pub min_altitude: f64,
     /// P-wave speed √((λ+2μ)/ρ) of the default material, m/s.
     pub wave_speed: f64,
@@ -274,9 +274,12 @@ pub fn diagnose_with(mesh: &TetMesh, params: &DoctorParams) -> Diagnosis {
     d.duplicate_vertices = duplicate_vertices(x);
     d.duplicate_tets = duplicate_tets(&mesh.tets);
     surface(mesh, &mut d);
+    // Degenerate tets are reported on their own; the time step is for the tets that can run.
     d.min_altitude = quality
         .iter()
-        .map(|q| q.altitude)
+        .zip(&is_degenerate)
+        .filter(|(_, bad)| !**bad)
+        .map(|(q, _)| q.altitude)
         .fold(f64::INFINITY, f64::min);
     let lame = Lame::from_young_poisson(params.youngs_modulus, params.poisson_ratio);
     d.wave_speed = ((lame.lambda + 2.0 * lame.mu) / params.density).sqrt();

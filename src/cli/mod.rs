@@ -1,0 +1,3 @@
+//! Subcommands of the `tetsim` binary: argument structs and dispatch, no physics.
+
+pub mod mesh;

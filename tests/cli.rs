@@ -1,0 +1,169 @@
+//! Tier 4: the real `tetsim` binary, spawned in a temp dir. Bad input gives exit ≠ 0 and an
+//! error naming the file and the line, element or node; good input exits 0.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
+}
+
+/// Copy `names` from the fixtures into a fresh temp dir (so nothing is written in the repo).
+fn staged(names: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for name in names {
+        let target = dir.path().join(Path::new(name).file_name().unwrap());
+        std::fs::copy(fixtures().join(name), target).unwrap();
+    }
+    dir
+}
+
+fn tetsim(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tetsim"))
+        .args(args)
+        .current_dir(dir)
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("the tetsim binary runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// `mesh check` on a broken fixture fails, and stderr contains every expected piece.
+fn check_fails(files: &[&str], arg: &str, expected: &[&str]) {
+    let dir = staged(files);
+    let out = tetsim(dir.path(), &["mesh", "check", arg]);
+    assert!(!out.status.success(), "{arg} was accepted");
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    for piece in expected {
+        assert!(err.contains(piece), "{arg}: `{piece}` not in: {err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn truncated_msh_fails_with_file_and_line() {
+    check_fails(
+        &["bad/truncated_v41.msh"],
+        "truncated_v41.msh",
+        &["error: truncated_v41.msh:987:", "truncated"],
+    );
+}
+
+#[test]
+fn missing_node_fails_naming_element_and_node() {
+    check_fails(
+        &["bad/missing_node.node", "bad/missing_node.ele"],
+        "missing_node.node",
+        &["missing_node.ele: element 2 refers to node 99"],
+    );
+}
+
+#[test]
+fn degenerate_tet_fails_naming_the_element_unless_forced() {
+    let files = ["bad/degenerate.node", "bad/degenerate.ele"];
+    check_fails(
+        &files,
+        "degenerate.ele",
+        &["degenerate.ele: degenerate element", ": 2", "--force"],
+    );
+    let dir = staged(&files);
+    let out = tetsim(dir.path(), &["mesh", "check", "--force", "degenerate.ele"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("error: degenerate element"), "{report}");
+}
+
+#[test]
+fn nan_coordinate_fails_naming_the_node() {
+    check_fails(
+        &["bad/nan_coordinate.node", "bad/nan_coordinate.ele"],
+        "nan_coordinate.ele",
+        &["nan_coordinate.node: node 2 has a non-finite"],
+    );
+}
+
+#[test]
+fn not_a_mesh_fails_at_line_one() {
+    check_fails(
+        &["bad/not_a_mesh.msh"],
+        "not_a_mesh.msh",
+        &["not_a_mesh.msh:1: not a Gmsh mesh"],
+    );
+}
+
+#[test]
+fn triangles_only_fails_for_lack_of_tets() {
+    check_fails(
+        &["bad/triangles_only_v22.msh"],
+        "triangles_only_v22.msh",
+        &["triangles_only_v22.msh: the mesh has no tetrahedra"],
+    );
+}
+
+#[test]
+fn missing_file_fails_naming_it() {
+    check_fails(&[], "nowhere.msh", &["nowhere.msh"]);
+}
+
+#[test]
+fn check_reports_a_good_mesh_and_its_groups() {
+    let dir = staged(&["beam_v41_binary.msh"]);
+    let out = tetsim(dir.path(), &["mesh", "check", "beam_v41_binary.msh"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    for piece in [
+        "Gmsh 4.1 binary",
+        "458 vertices, 1471 tets",
+        "group \"clamp\"",
+        "Euler characteristic 2",
+        "suggested dt",
+        "verdict: OK",
+    ] {
+        assert!(report.contains(piece), "`{piece}` not in: {report}");
+    }
+}
+
+#[test]
+fn convert_goes_through_every_format_and_back() {
+    let dir = staged(&["beam_v41.msh"]);
+    let mut previous = "beam_v41.msh".to_string();
+    for (target, extra) in [
+        ("a.vtu", None),
+        ("b.vtk", Some("--ascii")),
+        ("c.node", None),
+        ("d.mesh", None),
+        ("e.msh", Some("--binary")),
+        ("f.msh", Some("--msh22")),
+    ] {
+        let mut args = vec!["mesh", "convert", &previous, target];
+        args.extend(extra);
+        let out = tetsim(dir.path(), &args);
+        assert!(out.status.success(), "{target}: {}", stderr(&out));
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            stdout.contains("458 vertices, 1471 tets"),
+            "{target}: {stdout}"
+        );
+        previous = target.to_string();
+    }
+    let out = tetsim(dir.path(), &["mesh", "convert", "f.msh", "surface.obj"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let obj = std::fs::read_to_string(dir.path().join("surface.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("f ")).count(), 762);
+}
+
+#[test]
+fn convert_to_an_unknown_format_fails() {
+    let dir = staged(&["beam_v41.msh"]);
+    let out = tetsim(dir.path(), &["mesh", "convert", "beam_v41.msh", "beam.stl"]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("unknown mesh format `.stl`"),
+        "{}",
+        stderr(&out)
+    );
+}
