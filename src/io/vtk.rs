@@ -190,7 +190,9 @@ pub fn read(path: &Path) -> Result<(Parsed, String)> {
                     let mut k = 0;
                     for cell in 0..n {
                         let count = list.get(k).copied().unwrap_or(-1);
-                        let end = usize::try_from(count).ok().map(|c| k + 1 + c);
+                        let end = usize::try_from(count)
+                            .ok()
+                            .and_then(|c| c.checked_add(k + 1));
                         match end.filter(|&e| e <= list.len()) {
                             Some(end) => {
                                 connectivity.extend_from_slice(&list[k + 1..end]);

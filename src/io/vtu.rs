@@ -186,11 +186,21 @@ impl Layout<'_> {
             let block = payload
                 .get(offset..offset.checked_add(csize).ok_or_else(short)?)
                 .ok_or_else(short)?;
+            // zlib expands at most ~1032:1; a larger claim is a corrupt header, not a reason
+            // to allocate without bound.
             let expected = if b + 1 == blocks && last > 0 {
                 last
             } else {
                 block_size
             };
+            if expected > 1100 * csize + 1024 {
+                return Err(self.err(
+                    line,
+                    format!(
+                        "array `{name}`: block of {csize} bytes claims {expected} uncompressed"
+                    ),
+                ));
+            }
             let before = out.len();
             flate2::read::ZlibDecoder::new(block)
                 .take(expected as u64)

@@ -391,11 +391,14 @@ fn duplicate_tets(tets: &[[usize; 4]]) -> Vec<(usize, usize)> {
 
 /// Face incidences: boundary faces, faces of more than two tets, boundary edges and χ.
 fn surface(mesh: &TetMesh, d: &mut Diagnosis) {
-    let mut faces: Vec<([usize; 3], usize)> = Vec::with_capacity(4 * mesh.tets.len());
-    for (t, &[a, b, c, e]) in mesh.tets.iter().enumerate() {
+    // u32 keys halve the bytes the sort moves (a mesh with 2³² vertices would not fit in
+    // memory anyway).
+    let mut faces: Vec<([u32; 3], u32)> = Vec::with_capacity(4 * mesh.tets.len());
+    for (t, tet) in mesh.tets.iter().enumerate() {
+        let [a, b, c, e] = tet.map(|v| v as u32);
         for mut f in [[b, c, e], [a, c, e], [a, b, e], [a, b, c]] {
             f.sort_unstable();
-            faces.push((f, t));
+            faces.push((f, t as u32));
         }
     }
     faces.par_sort_unstable();
@@ -410,7 +413,7 @@ fn surface(mesh: &TetMesh, d: &mut Diagnosis) {
         match j - i {
             1 => boundary.push(faces[i].0),
             2 => {}
-            _ => non_manifold.extend(faces[i..j].iter().map(|f| f.1)),
+            _ => non_manifold.extend(faces[i..j].iter().map(|f| f.1 as usize)),
         }
         i = j;
     }
@@ -418,7 +421,7 @@ fn surface(mesh: &TetMesh, d: &mut Diagnosis) {
     non_manifold.dedup();
     d.non_manifold_tets = non_manifold;
     d.boundary_faces = boundary.len();
-    let mut edges: Vec<[usize; 2]> = boundary
+    let mut edges: Vec<[u32; 2]> = boundary
         .iter()
         .flat_map(|f| [[f[0], f[1]], [f[0], f[2]], [f[1], f[2]]])
         .collect();
@@ -438,7 +441,7 @@ fn surface(mesh: &TetMesh, d: &mut Diagnosis) {
         i = j;
     }
     d.open_edges = open;
-    let mut vertices: Vec<usize> = boundary.iter().flatten().copied().collect();
+    let mut vertices: Vec<u32> = boundary.iter().flatten().copied().collect();
     vertices.par_sort_unstable();
     vertices.dedup();
     d.euler_characteristic = vertices.len() as i64 - distinct_edges + boundary.len() as i64;

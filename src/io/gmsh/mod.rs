@@ -608,7 +608,13 @@ fn assemble(path: &Path, raw: Raw, v2: bool) -> Result<Parsed> {
     let mut tet_ids = Vec::with_capacity(raw.tets.len());
     // MSH 2 writes an element once per physical group it is in: merge such copies.
     let mut seen: std::collections::HashMap<[u64; 4], (usize, usize)> = Default::default();
-    let merge = v2 && raw.sets.len() > 2;
+    let mut first_set = None;
+    let merge = v2
+        && raw
+            .tet_set
+            .iter()
+            .filter(|&&s| s != 0)
+            .any(|&s| *first_set.get_or_insert(s) != s);
     for (k, nodes) in raw.tets.iter().enumerate() {
         let mut tet = [0usize; 4];
         for (slot, &node) in tet.iter_mut().zip(nodes) {
@@ -658,4 +664,58 @@ fn assemble(path: &Path, raw: Raw, v2: bool) -> Result<Parsed> {
         element_path: path.to_path_buf(),
         node_path: path.to_path_buf(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// MSH 2.2 binary, which no fixture covers: one tet in physical 7 "solid", one triangle in
+    /// the unnamed physical 5, node ids from 10.
+    fn binary_v22() -> Vec<u8> {
+        let mut b = b"$MeshFormat\n2.2 1 8\n".to_vec();
+        b.extend(1i32.to_le_bytes());
+        b.extend(b"\n$EndMeshFormat\n$PhysicalNames\n1\n3 7 \"solid\"\n$EndPhysicalNames\n");
+        b.extend(b"$Nodes\n4\n");
+        let corners = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ];
+        for (i, x) in corners.iter().enumerate() {
+            b.extend((10 + i as i32).to_le_bytes());
+            x.iter().for_each(|c: &f64| b.extend(c.to_le_bytes()));
+        }
+        b.extend(b"\n$EndNodes\n$Elements\n2\n");
+        for w in [
+            4i32, 1, 2, 1, 7, 1, 10, 11, 12, 13, 2, 1, 2, 2, 5, 1, 10, 11, 12,
+        ] {
+            b.extend(w.to_le_bytes());
+        }
+        b.extend(b"\n$EndElements\n");
+        b
+    }
+
+    #[test]
+    fn msh22_binary_reads_tets_and_groups() {
+        let dir = std::env::temp_dir().join(format!("tetsim-msh22b-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.msh");
+        std::fs::write(&path, binary_v22()).unwrap();
+        let (parsed, name) = read(&path).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(name, "Gmsh 2.2 binary");
+        let mesh = parsed.mesh;
+        assert_eq!(mesh.tets, vec![[0, 1, 2, 3]]);
+        assert_eq!(mesh.vertex_id(0), 10);
+        assert_eq!(mesh.positions[3], Vec3::new(0.0, 0.0, 1.0));
+        let dims: Vec<(usize, i64, &str, usize)> = mesh
+            .groups
+            .iter()
+            .map(|g| (g.dim, g.tag, g.name.as_str(), g.faces.len() + g.tets.len()))
+            .collect();
+        assert_eq!(dims, vec![(2, 5, "", 1), (3, 7, "solid", 1)]);
+        assert_eq!(parsed.ignored, vec![("triangle".to_string(), 1)]);
+    }
 }
