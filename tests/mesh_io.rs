@@ -447,6 +447,13 @@ fn read_garbage(dir: &Path, name: &str, bytes: &[u8]) {
     }
 }
 
+fn fuzz_cases() -> u32 {
+    std::env::var("TETSIM_FUZZ_CASES")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(48)
+}
+
 const GARBAGE_NAMES: [&str; 6] = ["g.msh", "g.ele", "g.vtk", "g.vtu", "g.mesh", "g.node"];
 
 fn seeds() -> Vec<(&'static str, Vec<u8>)> {
@@ -465,7 +472,9 @@ fn seeds() -> Vec<(&'static str, Vec<u8>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    // 48 cases each in CI; `TETSIM_FUZZ_CASES=5000 cargo test --release --test mesh_io survive`
+    // fuzzes for longer.
+    #![proptest_config(ProptestConfig { cases: fuzz_cases(), ..ProptestConfig::default() })]
 
     #[test]
     fn readers_survive_random_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..400), which in 0..6usize) {

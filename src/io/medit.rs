@@ -7,7 +7,9 @@
 use std::path::Path;
 
 use super::text::{Cursor, shorten};
-use super::{Groups, Ignored, Parsed, atomic_write, fmt_f64, missing_node, read_bytes};
+use super::{
+    Groups, Ignored, Parsed, atomic_write, fmt_f64, marked_faces, missing_node, read_bytes,
+};
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::mesh::TetMesh;
@@ -158,12 +160,7 @@ pub fn write(path: &Path, mesh: &TetMesh) -> Result<()> {
             }
         }
     }
-    let faces: Vec<([usize; 3], i64)> = mesh
-        .groups
-        .iter()
-        .filter(|g| g.dim == 2)
-        .flat_map(|g| g.faces.iter().map(move |f| (*f, g.tag.max(1))))
-        .collect();
+    let faces = marked_faces(mesh);
     atomic_write(path, |w| {
         writeln!(
             w,

@@ -419,6 +419,34 @@ pub(crate) fn missing_node(path: &Path, element: u64, node: u64) -> Error {
     }
 }
 
+/// `i x y z` lines, i from 1: the node lists of MSH 2.2 and TetGen.
+pub(crate) fn write_numbered_points(
+    w: &mut dyn Write,
+    points: &[crate::math::Vec3],
+) -> std::io::Result<()> {
+    for (i, x) in points.iter().enumerate() {
+        writeln!(
+            w,
+            "{} {} {} {}",
+            i + 1,
+            fmt_f64(x.x),
+            fmt_f64(x.y),
+            fmt_f64(x.z)
+        )?;
+    }
+    Ok(())
+}
+
+/// The faces of the dimension-2 groups with their group's tag as marker (at least 1, since 0
+/// means "no marker" in TetGen and MEDIT).
+pub(crate) fn marked_faces(mesh: &TetMesh) -> Vec<([usize; 3], i64)> {
+    mesh.groups
+        .iter()
+        .filter(|g| g.dim == 2)
+        .flat_map(|g| g.faces.iter().map(move |f| (*f, g.tag.max(1))))
+        .collect()
+}
+
 /// Format f64 so that it reads back bit-exactly (Rust's shortest round-trip representation).
 pub(crate) fn fmt_f64(x: f64) -> String {
     format!("{x:?}")

@@ -9,7 +9,10 @@
 use std::path::{Path, PathBuf};
 
 use super::text::shorten;
-use super::{Groups, IdMap, Ignored, Parsed, atomic_write, fmt_f64, missing_node, read_bytes};
+use super::{
+    Groups, IdMap, Ignored, Parsed, atomic_write, marked_faces, missing_node, read_bytes,
+    write_numbered_points,
+};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 use crate::mesh::TetMesh;
@@ -238,17 +241,7 @@ pub fn write(path: &Path, mesh: &TetMesh) -> Result<()> {
     let (node_path, ele_path, face_path) = paths(path);
     atomic_write(&node_path, |w| {
         writeln!(w, "{} 3 0 0", mesh.positions.len())?;
-        for (i, x) in mesh.positions.iter().enumerate() {
-            writeln!(
-                w,
-                "{} {} {} {}",
-                i + 1,
-                fmt_f64(x.x),
-                fmt_f64(x.y),
-                fmt_f64(x.z)
-            )?;
-        }
-        Ok(())
+        write_numbered_points(w, &mesh.positions)
     })?;
     let mut region = vec![None; mesh.tets.len()];
     for g in mesh.groups.iter().filter(|g| g.dim == 3) {
@@ -278,12 +271,7 @@ pub fn write(path: &Path, mesh: &TetMesh) -> Result<()> {
         }
         Ok(())
     })?;
-    let faces: Vec<([usize; 3], i64)> = mesh
-        .groups
-        .iter()
-        .filter(|g| g.dim == 2)
-        .flat_map(|g| g.faces.iter().map(move |f| (*f, g.tag.max(1))))
-        .collect();
+    let faces = marked_faces(mesh);
     if !faces.is_empty() {
         atomic_write(&face_path, |w| {
             writeln!(w, "{} 1", faces.len())?;

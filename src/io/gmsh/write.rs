@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::Version;
 use crate::error::Result;
-use crate::io::{atomic_write, fmt_f64};
+use crate::io::{atomic_write, fmt_f64, write_numbered_points};
 use crate::mesh::TetMesh;
 
 /// The physical groups of a mesh as Gmsh elements: tets, triangles (group faces) and points
@@ -293,16 +293,7 @@ fn write_v22(w: &mut dyn Write, mesh: &TetMesh, p: &Physicals) -> std::io::Resul
     w.write_all(b"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n")?;
     write_names(w, p)?;
     writeln!(w, "$Nodes\n{}", mesh.positions.len())?;
-    for (i, x) in mesh.positions.iter().enumerate() {
-        writeln!(
-            w,
-            "{} {} {} {}",
-            i + 1,
-            fmt_f64(x.x),
-            fmt_f64(x.y),
-            fmt_f64(x.z)
-        )?;
-    }
+    write_numbered_points(w, &mesh.positions)?;
     w.write_all(b"$EndNodes\n$Elements\n")?;
     // One line per (element, physical tag); a tet in no group has physical tag 0.
     let copies = |tags: &Vec<i64>| tags.len().max(1);
