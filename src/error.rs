@@ -121,6 +121,42 @@ pub enum MeshProblem {
         /// The elements.
         tets: Vec<u64>,
     },
+    /// Tets whose smallest dihedral angle is below the sliver threshold: valid, but they make
+    /// the stiffness badly conditioned.
+    Slivers {
+        /// The elements.
+        tets: Vec<u64>,
+        /// The smallest dihedral angle among them, in degrees.
+        min_angle_degrees: f64,
+    },
+    /// Tets with the same four vertices as an earlier tet (double mass and stiffness).
+    DuplicateTets {
+        /// The later copies.
+        tets: Vec<u64>,
+    },
+    /// Distinct vertices at the same position: the mesh is cut along them (a hidden crack).
+    DuplicateVertices {
+        /// The later copies.
+        vertices: Vec<u64>,
+    },
+    /// Faces shared by more than two tets: overlapping or non-manifold elements.
+    NonManifoldFaces {
+        /// The tets around such faces.
+        tets: Vec<u64>,
+    },
+    /// The boundary surface is not closed and manifold: edges not shared by exactly two
+    /// boundary triangles (tets touching only along an edge, or at a vertex).
+    OpenSurface {
+        /// How many such edges.
+        edges: usize,
+    },
+    /// The mesh falls apart into several pieces that do not share a vertex.
+    Disconnected {
+        /// Tets in each piece, largest first.
+        components: Vec<usize>,
+    },
+    /// Several problems at once (every one is listed).
+    Many(Vec<MeshProblem>),
 }
 
 /// How many items an error message lists before "(and N more)".
@@ -143,18 +179,71 @@ impl fmt::Display for MeshProblem {
                 )
             }
             MeshProblem::Degenerate { tets } => {
-                let shown: Vec<String> = tets.iter().take(LIST_MAX).map(u64::to_string).collect();
                 let plural = if tets.len() == 1 { "" } else { "s" };
                 write!(
                     f,
                     "degenerate element{plural} (zero or near-zero volume): {}",
-                    shown.join(", ")
-                )?;
-                if tets.len() > LIST_MAX {
-                    write!(f, " (and {} more)", tets.len() - LIST_MAX)?;
+                    list(tets)
+                )
+            }
+            MeshProblem::Slivers {
+                tets,
+                min_angle_degrees,
+            } => write!(
+                f,
+                "{} sliver element(s) (smallest dihedral angle {min_angle_degrees:.3}°): {}",
+                tets.len(),
+                list(tets)
+            ),
+            MeshProblem::DuplicateTets { tets } => {
+                write!(
+                    f,
+                    "duplicate element(s) (same four nodes as an earlier one): {}",
+                    list(tets)
+                )
+            }
+            MeshProblem::DuplicateVertices { vertices } => write!(
+                f,
+                "duplicate node(s) (same position as an earlier node): {}",
+                list(vertices)
+            ),
+            MeshProblem::NonManifoldFaces { tets } => write!(
+                f,
+                "faces shared by more than two elements (overlapping elements): {}",
+                list(tets)
+            ),
+            MeshProblem::OpenSurface { edges } => write!(
+                f,
+                "the boundary surface is not closed and manifold ({edges} edge(s) not shared by exactly two boundary faces)"
+            ),
+            MeshProblem::Disconnected { components } => {
+                let sizes: Vec<u64> = components.iter().map(|&c| c as u64).collect();
+                write!(
+                    f,
+                    "the mesh has {} disconnected pieces (tets per piece: {})",
+                    components.len(),
+                    list(&sizes)
+                )
+            }
+            MeshProblem::Many(problems) => {
+                for (i, p) in problems.iter().enumerate() {
+                    if i > 0 {
+                        write!(f, "; ")?;
+                    }
+                    write!(f, "{p}")?;
                 }
                 Ok(())
             }
         }
     }
+}
+
+/// `a, b, c (and N more)`, at most [`LIST_MAX`] items.
+fn list(items: &[u64]) -> String {
+    let shown: Vec<String> = items.iter().take(LIST_MAX).map(u64::to_string).collect();
+    let mut s = shown.join(", ");
+    if items.len() > LIST_MAX {
+        s.push_str(&format!(" (and {} more)", items.len() - LIST_MAX));
+    }
+    s
 }

@@ -29,7 +29,8 @@
 //! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
-//! - [`io`], [`output`]: mesh files and the run's output files.
+//! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
+//! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`sparse`]: assembled block-sparse matrices; [`bench`]: the `tetsim bench` workload.
 //! - [`error`]: typed, located errors.
 

@@ -85,6 +85,10 @@ pub struct MeshSpec {
     pub file: Option<PathBuf>,
     /// Built-in generator.
     pub generator: Option<Generator>,
+    /// Load a mesh the doctor finds bad (degenerate or duplicate tets, …) anyway. Default false;
+    /// `tetsim run --force` sets it.
+    #[serde(default)]
+    pub force: bool,
 }
 
 /// Built-in mesh generators.
@@ -510,7 +514,24 @@ impl Scene {
     /// Build the mesh: read the file or run the generator.
     pub fn build_mesh(&self) -> Result<TetMesh> {
         match (&self.mesh.file, &self.mesh.generator) {
-            (Some(file), _) => crate::io::read_mesh(&self.resolve(file)),
+            (Some(file), _) => {
+                let path = self.resolve(file);
+                let read = crate::io::read_mesh_with(
+                    &path,
+                    crate::io::ReadOptions {
+                        force: self.mesh.force,
+                    },
+                )?;
+                log::info!(
+                    "{}: {}",
+                    path.display(),
+                    read.report.to_string().trim_end().replace('\n', "; ")
+                );
+                for (severity, problem) in read.diagnosis.problems() {
+                    log::warn!("{}: {severity:?}: {problem}", path.display());
+                }
+                Ok(read.mesh)
+            }
             (None, Some(Generator::Box { min, max, cells })) => {
                 Ok(box_mesh(Vec3::from(*min), Vec3::from(*max), *cells))
             }

@@ -1,12 +1,28 @@
-//! Tier 4: the real `tetsim` binary in a temporary folder: outputs, exit codes, messages.
+//! Tier 4: the real `tetsim` binary, spawned in a temp dir: outputs, exit codes, messages. Bad
+//! input gives exit ≠ 0 and an error naming the file and the line, element or node.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
+}
+
+/// Copy `names` from the fixtures into a fresh temp dir (so nothing is written in the repo).
+fn staged(names: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for name in names {
+        let target = dir.path().join(Path::new(name).file_name().unwrap());
+        std::fs::copy(fixtures().join(name), target).unwrap();
+    }
+    dir
+}
 
 fn tetsim(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tetsim"))
         .args(args)
         .current_dir(dir)
+        .env("RUST_LOG", "warn")
         .output()
         .expect("the tetsim binary runs")
 }
@@ -14,6 +30,145 @@ fn tetsim(dir: &Path, args: &[&str]) -> Output {
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
+
+/// `mesh check` on a broken fixture fails, and stderr contains every expected piece.
+fn check_fails(files: &[&str], arg: &str, expected: &[&str]) {
+    let dir = staged(files);
+    let out = tetsim(dir.path(), &["mesh", "check", arg]);
+    assert!(!out.status.success(), "{arg} was accepted");
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    for piece in expected {
+        assert!(err.contains(piece), "{arg}: `{piece}` not in: {err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn truncated_msh_fails_with_file_and_line() {
+    check_fails(
+        &["bad/truncated_v41.msh"],
+        "truncated_v41.msh",
+        &["error: truncated_v41.msh:987:", "truncated"],
+    );
+}
+
+#[test]
+fn missing_node_fails_naming_element_and_node() {
+    check_fails(
+        &["bad/missing_node.node", "bad/missing_node.ele"],
+        "missing_node.node",
+        &["missing_node.ele: element 2 refers to node 99"],
+    );
+}
+
+#[test]
+fn degenerate_tet_fails_naming_the_element_unless_forced() {
+    let files = ["bad/degenerate.node", "bad/degenerate.ele"];
+    check_fails(
+        &files,
+        "degenerate.ele",
+        &["degenerate.ele: degenerate element", ": 2", "--force"],
+    );
+    let dir = staged(&files);
+    let out = tetsim(dir.path(), &["mesh", "check", "--force", "degenerate.ele"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("error: degenerate element"), "{report}");
+}
+
+#[test]
+fn nan_coordinate_fails_naming_the_node() {
+    check_fails(
+        &["bad/nan_coordinate.node", "bad/nan_coordinate.ele"],
+        "nan_coordinate.ele",
+        &["nan_coordinate.node: node 2 has a non-finite"],
+    );
+}
+
+#[test]
+fn not_a_mesh_fails_at_line_one() {
+    check_fails(
+        &["bad/not_a_mesh.msh"],
+        "not_a_mesh.msh",
+        &["not_a_mesh.msh:1: not a Gmsh mesh"],
+    );
+}
+
+#[test]
+fn triangles_only_fails_for_lack_of_tets() {
+    check_fails(
+        &["bad/triangles_only_v22.msh"],
+        "triangles_only_v22.msh",
+        &["triangles_only_v22.msh: the mesh has no tetrahedra"],
+    );
+}
+
+#[test]
+fn missing_file_fails_naming_it() {
+    check_fails(&[], "nowhere.msh", &["nowhere.msh"]);
+}
+
+#[test]
+fn check_reports_a_good_mesh_and_its_groups() {
+    let dir = staged(&["beam_v41_binary.msh"]);
+    let out = tetsim(dir.path(), &["mesh", "check", "beam_v41_binary.msh"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    for piece in [
+        "Gmsh 4.1 binary",
+        "458 vertices, 1471 tets",
+        "group \"clamp\"",
+        "Euler characteristic 2",
+        "suggested dt",
+        "verdict: OK",
+    ] {
+        assert!(report.contains(piece), "`{piece}` not in: {report}");
+    }
+}
+
+#[test]
+fn convert_goes_through_every_format_and_back() {
+    let dir = staged(&["beam_v41.msh"]);
+    let mut previous = "beam_v41.msh".to_string();
+    for (target, extra) in [
+        ("a.vtu", None),
+        ("b.vtk", Some("--ascii")),
+        ("c.node", None),
+        ("d.mesh", None),
+        ("e.msh", Some("--binary")),
+        ("f.msh", Some("--msh22")),
+    ] {
+        let mut args = vec!["mesh", "convert", &previous, target];
+        args.extend(extra);
+        let out = tetsim(dir.path(), &args);
+        assert!(out.status.success(), "{target}: {}", stderr(&out));
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            stdout.contains("458 vertices, 1471 tets"),
+            "{target}: {stdout}"
+        );
+        previous = target.to_string();
+    }
+    let out = tetsim(dir.path(), &["mesh", "convert", "f.msh", "surface.obj"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let obj = std::fs::read_to_string(dir.path().join("surface.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("f ")).count(), 762);
+}
+
+#[test]
+fn convert_to_an_unknown_format_fails() {
+    let dir = staged(&["beam_v41.msh"]);
+    let out = tetsim(dir.path(), &["mesh", "convert", "beam_v41.msh", "beam.stl"]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("unknown mesh format `.stl`"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+// ---- tetsim run ----
 
 #[test]
 fn run_default_scene_writes_every_file() {
@@ -27,22 +182,24 @@ fn run_default_scene_writes_every_file() {
             !obj.contains("NaN") && !obj.contains("inf"),
             "surface {frame} has non-finite values"
         );
-        let vtu = std::fs::read_to_string(out_dir.join(format!("frame_{frame:04}.vtu"))).unwrap();
-        let values = float64_arrays(&vtu);
+        // Read the frame back with the library's own VTU reader: points and every array finite.
+        let vtu =
+            tetsim::io::read_vtu_frame(&out_dir.join(format!("frame_{frame:04}.vtu"))).unwrap();
         assert!(
-            values.len() > 1000 && values.iter().all(|v| v.is_finite()),
-            "frame {frame} has non-finite values"
+            vtu.points.len() > 100 && vtu.points.iter().all(|p| p.iter().all(|c| c.is_finite()))
         );
-    }
-    let vtu = std::fs::read_to_string(out_dir.join("frame_0003.vtu")).unwrap();
-    for array in [
-        "\"displacement\"",
-        "\"velocity\"",
-        "\"J\"",
-        "\"strain_energy_density\"",
-        "\"von_mises\"",
-    ] {
-        assert!(vtu.contains(array), "frame VTU lacks {array}");
+        for name in ["displacement", "velocity"] {
+            let field = vtu
+                .point_field(name)
+                .unwrap_or_else(|| panic!("frame {frame} lacks {name}"));
+            assert!(finite(field), "frame {frame}: {name} not finite");
+        }
+        for name in ["J", "strain_energy_density", "von_mises"] {
+            let field = vtu
+                .cell_field(name)
+                .unwrap_or_else(|| panic!("frame {frame} lacks {name}"));
+            assert!(finite(field), "frame {frame}: {name} not finite");
+        }
     }
     let pvd = std::fs::read_to_string(out_dir.join("frames.pvd")).unwrap();
     assert_eq!(pvd.matches("<DataSet").count(), 4);
@@ -82,44 +239,12 @@ fn run_default_scene_writes_every_file() {
     );
 }
 
-/// Every Float64 value of a binary (base64, UInt64 header) VTU.
-fn float64_arrays(vtu: &str) -> Vec<f64> {
-    let mut values = Vec::new();
-    for piece in vtu.split("<DataArray").skip(1) {
-        if !piece.contains("type=\"Float64\"") {
-            continue;
-        }
-        let data = &piece[piece.find('>').unwrap() + 1..piece.find("</DataArray>").unwrap()];
-        let bytes = decode_base64(data.trim());
-        values.extend(
-            bytes[8..]
-                .chunks(8)
-                .map(|c| f64::from_le_bytes(c.try_into().unwrap())),
-        );
+fn finite(field: &tetsim::io::FieldData) -> bool {
+    match field {
+        tetsim::io::FieldData::Scalar(v) => v.iter().all(|x| x.is_finite()),
+        tetsim::io::FieldData::Vector(v) => v.iter().all(|p| p.iter().all(|c| c.is_finite())),
+        other => panic!("unexpected field {other:?}"),
     }
-    values
-}
-
-fn decode_base64(text: &str) -> Vec<u8> {
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => c - b'A',
-        b'a'..=b'z' => c - b'a' + 26,
-        b'0'..=b'9' => c - b'0' + 52,
-        b'+' => 62,
-        b'/' => 63,
-        _ => panic!("not base64: {c}"),
-    };
-    let mut out = Vec::new();
-    for chunk in text.as_bytes().chunks(4) {
-        let pad = chunk.iter().filter(|&&c| c == b'=').count();
-        let n = chunk
-            .iter()
-            .take(4 - pad)
-            .enumerate()
-            .fold(0u32, |n, (i, &c)| n | (value(c) as u32) << (18 - 6 * i));
-        out.extend_from_slice(&n.to_be_bytes()[1..4 - pad]);
-    }
-    out
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Subcommands: argument structs and dispatch, no physics.
 
 mod bench;
+pub mod mesh;
 mod run;
 
 use std::process::ExitCode;
@@ -28,6 +29,9 @@ pub struct Cli {
 enum Command {
     /// Run a scene (no SCENE: the built-in default scene) and write frames.
     Run(run::RunArgs),
+    /// Check and convert meshes.
+    #[command(subcommand)]
+    Mesh(mesh::MeshCommand),
     /// Time the cantilever workload of issue 8 at several mesh sizes.
     Bench(bench::BenchArgs),
 }
@@ -55,6 +59,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     }
     match cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
+        Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => bench::run(args, cli.quiet),
     }
 }

@@ -21,6 +21,9 @@ pub struct RunArgs {
     /// Number of frames (overrides [solver] frames).
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Run on a mesh the mesh doctor refuses (sets [mesh] force).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
@@ -28,6 +31,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         Some(path) => Scene::load(path)?,
         None => Scene::default(),
     };
+    scene.mesh.force |= args.force;
     if let Some(frames) = args.frames {
         anyhow::ensure!(frames > 0, "--frames must be at least 1");
         scene.solver.frames = frames;

@@ -4,6 +4,7 @@
 //! on. Validation (finite coordinates, indices in range, no degenerate tets) happens here, once,
 //! so the physics never sees a NaN or a zero-volume tet.
 
+pub mod doctor;
 pub mod generate;
 
 use crate::error::MeshProblem;
@@ -183,6 +184,73 @@ impl TetMesh {
         boundary
     }
 
+    /// Swap the last two vertices of every negatively oriented tet, so that all have positive
+    /// signed volume (readers do this on load). Returns how many were reoriented.
+    pub fn reorient(&mut self) -> usize {
+        let mut count = 0;
+        for t in 0..self.tets.len() {
+            if self.signed_volume(t) < 0.0 {
+                self.tets[t].swap(2, 3);
+                count += 1;
+            }
+        }
+        count
+    }
+
+    /// Drop the vertices that no tet uses and renumber the others in their order, updating the
+    /// groups (dropping group faces that lose a vertex) and `vertex_ids`. Returns the file ids
+    /// (see [`TetMesh::vertex_id`]) of the dropped vertices. Does nothing when a tet index is out
+    /// of range (see [`TetMesh::validate`]).
+    pub fn drop_unreferenced_vertices(&mut self) -> Vec<u64> {
+        let n = self.positions.len();
+        if self.tets.iter().flatten().any(|&v| v >= n) {
+            // Not a mesh to renumber: `validate` reports the bad index.
+            return Vec::new();
+        }
+        let mut used = vec![false; n];
+        for tet in &self.tets {
+            for &v in tet {
+                used[v] = true;
+            }
+        }
+        if used.iter().all(|&u| u) {
+            return Vec::new();
+        }
+        let mut new_index = vec![usize::MAX; n];
+        let mut dropped = Vec::new();
+        let mut next = 0;
+        for v in 0..n {
+            if used[v] {
+                new_index[v] = next;
+                next += 1;
+            } else {
+                dropped.push(self.vertex_id(v));
+            }
+        }
+        let keep = |v: &usize| used[*v];
+        self.positions = (0..n).filter(keep).map(|v| self.positions[v]).collect();
+        let ids: Vec<u64> = (0..n).filter(keep).map(|v| self.vertex_id(v)).collect();
+        self.vertex_ids = Some(ids);
+        for tet in &mut self.tets {
+            *tet = tet.map(|v| new_index[v]);
+        }
+        for g in &mut self.groups {
+            g.vertices = g
+                .vertices
+                .iter()
+                .filter(|&&v| v < n && used[v])
+                .map(|&v| new_index[v])
+                .collect();
+            g.faces = g
+                .faces
+                .iter()
+                .filter(|f| f.iter().all(|&v| v < n && used[v]))
+                .map(|f| f.map(|v| new_index[v]))
+                .collect();
+        }
+        dropped
+    }
+
     /// The group with this name, if any.
     pub fn group(&self, name: &str) -> Option<&Group> {
         self.groups.iter().find(|g| g.name == name)
@@ -245,6 +313,27 @@ mod tests {
             mesh.validate(),
             Err(MeshProblem::Degenerate { tets: vec![2] })
         );
+    }
+
+    #[test]
+    fn reorient_and_drop_unused_vertices_renumber_in_order() {
+        let mut mesh = unit_tet();
+        mesh.positions.insert(0, Vec3::new(9.0, 9.0, 9.0));
+        mesh.tets[0] = [1, 3, 2, 4];
+        mesh.vertex_ids = Some(vec![10, 11, 12, 13, 14]);
+        mesh.groups.push(Group {
+            vertices: vec![0, 2],
+            faces: vec![[0, 1, 2], [1, 2, 3]],
+            ..Default::default()
+        });
+        assert_eq!(mesh.drop_unreferenced_vertices(), vec![10]);
+        assert_eq!(mesh.tets, vec![[0, 2, 1, 3]]);
+        assert_eq!(mesh.vertex_id(0), 11);
+        assert_eq!(mesh.groups[0].vertices, vec![1]);
+        assert_eq!(mesh.groups[0].faces, vec![[0, 1, 2]]);
+        assert_eq!(mesh.reorient(), 1);
+        assert!(mesh.signed_volume(0) > 0.0);
+        assert_eq!(mesh.reorient(), 0);
     }
 
     #[test]

@@ -1,0 +1,118 @@
+//! `tetsim mesh check FILE` and `tetsim mesh convert IN OUT`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::Subcommand;
+use tetsim::error::Error;
+use tetsim::io::gmsh::{self, Version};
+use tetsim::io::{self, MeshRead, ReadOptions};
+
+/// Mesh subcommands.
+#[derive(Debug, Subcommand)]
+pub enum MeshCommand {
+    /// Diagnose a mesh: what loading changed, counts, bounding box, volume, orientation,
+    /// degenerate and sliver tets, quality histogram, pieces, duplicates, surface, a time step.
+    /// Exits non-zero when tetsim would refuse the mesh.
+    Check {
+        /// The mesh (.msh, .node/.ele, .vtk, .vtu, .mesh).
+        file: PathBuf,
+        /// Exit zero even when the doctor finds errors (degenerate or duplicate tets, …).
+        #[arg(long)]
+        force: bool,
+    },
+    /// Convert a mesh to the format of OUTPUT's extension (.msh, .vtu, .vtk, .node, .mesh, .obj
+    /// for the boundary surface), after the same checks as a run.
+    Convert {
+        /// The mesh to read.
+        input: PathBuf,
+        /// The file to write.
+        output: PathBuf,
+        /// Convert even when the doctor finds errors.
+        #[arg(long)]
+        force: bool,
+        /// Write .msh and .vtk as binary (default: .msh ASCII 4.1, .vtk binary).
+        #[arg(long, conflicts_with = "ascii")]
+        binary: bool,
+        /// Write .msh and .vtk as ASCII.
+        #[arg(long)]
+        ascii: bool,
+        /// Write .msh in the older MSH 2.2 format (ASCII).
+        #[arg(long)]
+        msh22: bool,
+    },
+}
+
+/// Run a mesh subcommand.
+pub fn run(cmd: MeshCommand) -> anyhow::Result<()> {
+    match cmd {
+        MeshCommand::Check { file, force } => check(&file, force),
+        MeshCommand::Convert {
+            input,
+            output,
+            force,
+            binary,
+            ascii,
+            msh22,
+        } => {
+            let read = load(&input, force)?;
+            for line in read.report.to_string().lines() {
+                log::info!("{}: {line}", input.display());
+            }
+            let ext = output
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            let written = match ext.as_deref() {
+                Some("msh") if msh22 => gmsh::write(&output, &read.mesh, Version::V22, false),
+                Some("msh") => gmsh::write(&output, &read.mesh, Version::V41, binary),
+                Some("vtk") => io::vtk::write(&output, &read.mesh, !ascii),
+                _ => io::write_mesh(&output, &read.mesh),
+            };
+            written.with_context(|| format!("cannot convert {}", input.display()))?;
+            println!(
+                "wrote {} ({} vertices, {} tets, {} groups)",
+                output.display(),
+                read.mesh.positions.len(),
+                read.mesh.tets.len(),
+                read.mesh.groups.len()
+            );
+            Ok(())
+        }
+    }
+}
+
+/// Read with the doctor's verdict enforced unless `force`.
+fn load(path: &Path, force: bool) -> anyhow::Result<MeshRead> {
+    let read = io::read_mesh_with(path, ReadOptions { force })?;
+    Ok(read)
+}
+
+fn check(path: &Path, force: bool) -> anyhow::Result<()> {
+    // Read forced, so that the report is printed in full even for a mesh that is refused.
+    let read = io::read_mesh_with(path, ReadOptions { force: true })?;
+    println!("{}", path.display());
+    print!("{}", read.report);
+    for g in &read.mesh.groups {
+        println!(
+            "group {:?} (dimension {}, tag {}): {} vertices, {} faces, {} tets",
+            g.name,
+            g.dim,
+            g.tag,
+            g.vertices.len(),
+            g.faces.len(),
+            g.tets.len()
+        );
+    }
+    print!("{}", read.diagnosis);
+    if let Some(problem) = read.diagnosis.refusal()
+        && !force
+    {
+        let err = Error::Mesh {
+            path: Some(path.to_path_buf()),
+            problem,
+        };
+        bail!("{err} (use --force to accept it)");
+    }
+    Ok(())
+}

@@ -1,0 +1,795 @@
+//! VTK XML unstructured grids (`.vtu`) and ParaView collections (`.pvd`).
+//!
+//! Read: `ascii`, inline `binary` (base64) and `appended` (raw or base64) data arrays, optionally
+//! zlib-compressed, UInt32 or UInt64 headers, either byte order: what ParaView, VTK and meshio
+//! write. Our own reader, because `vtkio` 0.6.3 fails on meshio's files (see the tests) and its
+//! 0.7 is not released. Write: binary appended raw data (or inline base64), optionally
+//! compressed, with f64 point and cell data; the same input always gives the same bytes.
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD as BASE64;
+
+use super::text::{Endian, Scalar, Value, decode, decode_all, shorten};
+use super::vtk::{VTK_TETRA, tets_from_cells};
+use super::xml::{self, Appended, Element};
+use super::{Parsed, atomic_write, read_bytes};
+use crate::error::{Error, Result};
+use crate::math::Vec3;
+
+/// A data array to write: one f64 per point (or cell), or one vector.
+#[derive(Clone, Copy, Debug)]
+pub enum Field<'a> {
+    /// One value per item.
+    Scalar(&'a [f64]),
+    /// One 3-vector per item.
+    Vector(&'a [Vec3]),
+}
+
+impl Field<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Field::Scalar(s) => s.len(),
+            Field::Vector(v) => v.len(),
+        }
+    }
+}
+
+/// A data array read back from a VTU file (any numeric type, as f64).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FieldData {
+    /// One component.
+    Scalar(Vec<f64>),
+    /// Three components.
+    Vector(Vec<Vec3>),
+    /// Any other number of components, item-major.
+    Other {
+        /// Components per item.
+        components: usize,
+        /// The values.
+        values: Vec<f64>,
+    },
+}
+
+/// A VTU file read back: points, the tet cells, and the data arrays (cell data restricted to
+/// the tet cells, in the same order).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Frame {
+    /// All points, in file order.
+    pub points: Vec<Vec3>,
+    /// The tet cells.
+    pub tets: Vec<[usize; 4]>,
+    /// Point data arrays by name, in file order.
+    pub point_data: Vec<(String, FieldData)>,
+    /// Cell data arrays by name, in file order, one entry per tet.
+    pub cell_data: Vec<(String, FieldData)>,
+}
+
+impl Frame {
+    /// The point data array `name`.
+    pub fn point_field(&self, name: &str) -> Option<&FieldData> {
+        self.point_data.iter().find(|f| f.0 == name).map(|f| &f.1)
+    }
+
+    /// The cell data array `name`.
+    pub fn cell_field(&self, name: &str) -> Option<&FieldData> {
+        self.cell_data.iter().find(|f| f.0 == name).map(|f| &f.1)
+    }
+}
+
+/// How [`write_vtu_with`] stores the arrays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VtuOptions {
+    /// Inline base64 `binary` arrays instead of one raw `<AppendedData>` block (default false:
+    /// raw appended is the smallest and fastest, and ParaView and meshio read it).
+    pub base64: bool,
+    /// zlib-compress the arrays (default false: frames are rewritten often, and compression
+    /// costs more time than the disk saves).
+    pub zlib: bool,
+}
+
+/// Header and array layout of one file.
+struct Layout<'a> {
+    path: &'a Path,
+    data: &'a [u8],
+    endian: Endian,
+    header: Scalar,
+    zlib: bool,
+    appended: Option<Appended>,
+}
+
+/// XML type names → scalar type.
+fn xml_type(name: &str) -> Option<Scalar> {
+    Some(match name {
+        "Int8" => Scalar::I8,
+        "UInt8" => Scalar::U8,
+        "Int16" => Scalar::I16,
+        "UInt16" => Scalar::U16,
+        "Int32" => Scalar::I32,
+        "UInt32" => Scalar::U32,
+        "Int64" => Scalar::I64,
+        "UInt64" => Scalar::U64,
+        "Float32" => Scalar::F32,
+        "Float64" => Scalar::F64,
+        _ => return None,
+    })
+}
+
+/// Base64 text that may be several encodings one after the other (VTK encodes a compressed
+/// array's header apart from its data): decode each padded piece in turn.
+fn decode_base64(text: &[u8]) -> std::result::Result<Vec<u8>, String> {
+    let clean: Vec<u8> = text
+        .iter()
+        .copied()
+        .filter(|b| !b.is_ascii_whitespace())
+        .collect();
+    let mut out = Vec::with_capacity(clean.len() / 4 * 3);
+    let mut start = 0;
+    while start < clean.len() {
+        // A piece ends after its padding, or at the end.
+        let mut end = start;
+        while end < clean.len() && clean[end] != b'=' {
+            end += 1;
+        }
+        while end < clean.len() && clean[end] == b'=' {
+            end += 1;
+        }
+        BASE64
+            .decode_vec(&clean[start..end], &mut out)
+            .map_err(|e| format!("bad base64 data: {e}"))?;
+        start = end;
+    }
+    Ok(out)
+}
+
+impl Layout<'_> {
+    fn err(&self, line: usize, message: impl Into<String>) -> Error {
+        Error::parse(self.path, Some(line), message)
+    }
+
+    fn header_value(&self, bytes: &[u8], k: usize) -> Option<usize> {
+        let size = self.header.size();
+        let v = bytes.get(k * size..(k + 1) * size)?;
+        match decode(v, self.header, self.endian) {
+            Value::Int(i) => usize::try_from(i).ok(),
+            Value::Float(_) => None,
+        }
+    }
+
+    /// The payload of a binary array (header + data, compressed or not) → the data bytes, and
+    /// how many payload bytes that took.
+    fn unpack(&self, payload: &[u8], line: usize, name: &str) -> Result<(Vec<u8>, usize)> {
+        let size = self.header.size();
+        let short = || self.err(line, format!("array `{name}`: data cut short"));
+        if !self.zlib {
+            let n = self.header_value(payload, 0).ok_or_else(short)?;
+            let data = payload
+                .get(size..size.checked_add(n).ok_or_else(short)?)
+                .ok_or_else(short)?;
+            return Ok((data.to_vec(), size + n));
+        }
+        let blocks = self.header_value(payload, 0).ok_or_else(short)?;
+        let block_size = self.header_value(payload, 1).ok_or_else(short)?;
+        let last = self.header_value(payload, 2).ok_or_else(short)?;
+        if blocks > payload.len() / size {
+            return Err(self.err(
+                line,
+                format!("array `{name}`: {blocks} compressed blocks cannot fit"),
+            ));
+        }
+        let mut offset = (3 + blocks) * size;
+        let mut out = Vec::new();
+        for b in 0..blocks {
+            let csize = self.header_value(payload, 3 + b).ok_or_else(short)?;
+            let block = payload
+                .get(offset..offset.checked_add(csize).ok_or_else(short)?)
+                .ok_or_else(short)?;
+            // zlib expands at most ~1032:1; a larger claim is a corrupt header, not a reason
+            // to allocate without bound.
+            let expected = if b + 1 == blocks && last > 0 {
+                last
+            } else {
+                block_size
+            };
+            if expected > 1100 * csize + 1024 {
+                return Err(self.err(
+                    line,
+                    format!(
+                        "array `{name}`: block of {csize} bytes claims {expected} uncompressed"
+                    ),
+                ));
+            }
+            let before = out.len();
+            flate2::read::ZlibDecoder::new(block)
+                .take(expected as u64)
+                .read_to_end(&mut out)
+                .map_err(|e| self.err(line, format!("array `{name}`: bad zlib data: {e}")))?;
+            if out.len() - before != expected {
+                return Err(self.err(line, format!("array `{name}`: a compressed block is short")));
+            }
+            offset += csize;
+        }
+        Ok((out, offset))
+    }
+
+    /// The values of a `<DataArray>`, with its number of components.
+    fn array(&self, e: &Element, offsets: &[usize]) -> Result<(Vec<Value>, usize)> {
+        let name = e.attr("Name").unwrap_or("(unnamed)");
+        let ty_name = e.attr("type").unwrap_or("");
+        let ty = xml_type(ty_name).ok_or_else(|| {
+            self.err(
+                e.line,
+                format!("array `{name}`: unknown type `{}`", shorten(ty_name)),
+            )
+        })?;
+        let components: usize = e
+            .attr("NumberOfComponents")
+            .unwrap_or("1")
+            .parse()
+            .ok()
+            .filter(|&c| c > 0)
+            .ok_or_else(|| self.err(e.line, format!("array `{name}`: bad NumberOfComponents")))?;
+        let text = e.text.clone().map_or(&[][..], |r| &self.data[r]);
+        let format = e.attr("format").unwrap_or("ascii");
+        let bytes = match format {
+            "ascii" => {
+                let text = std::str::from_utf8(text)
+                    .map_err(|_| self.err(e.line, format!("array `{name}`: not text")))?;
+                let values = text
+                    .split_ascii_whitespace()
+                    .map(|t| {
+                        if ty.is_integer() {
+                            t.parse::<i64>().map(|i| Value::Int(i as i128)).ok()
+                        } else {
+                            t.parse::<f64>().map(Value::Float).ok()
+                        }
+                        .ok_or_else(|| {
+                            self.err(
+                                e.line,
+                                format!("array `{name}`: bad number `{}`", shorten(t)),
+                            )
+                        })
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                return Ok((values, components));
+            }
+            "binary" => {
+                let payload = decode_base64(text)
+                    .map_err(|m| self.err(e.line, format!("array `{name}`: {m}")))?;
+                self.unpack(&payload, e.line, name)?.0
+            }
+            "appended" => {
+                let appended = self.appended.as_ref().ok_or_else(|| {
+                    self.err(
+                        e.line,
+                        format!("array `{name}` is appended, but there is no <AppendedData>"),
+                    )
+                })?;
+                let offset: usize = e
+                    .attr("offset")
+                    .and_then(|o| o.trim().parse().ok())
+                    .ok_or_else(|| self.err(e.line, format!("array `{name}`: bad offset")))?;
+                let region = &self.data[appended.data.clone()];
+                let start = offset.min(region.len());
+                if appended.encoding == "base64" {
+                    // Up to the next array's offset (or the end).
+                    let end = offsets
+                        .iter()
+                        .copied()
+                        .find(|&o| o > offset)
+                        .unwrap_or(region.len());
+                    let payload = decode_base64(&region[start..end.min(region.len())])
+                        .map_err(|m| self.err(e.line, format!("array `{name}`: {m}")))?;
+                    self.unpack(&payload, e.line, name)?.0
+                } else if appended.encoding == "raw" {
+                    self.unpack(&region[start..], e.line, name)?.0
+                } else {
+                    return Err(self.err(
+                        appended.line,
+                        format!(
+                            "unknown AppendedData encoding `{}`",
+                            shorten(&appended.encoding)
+                        ),
+                    ));
+                }
+            }
+            f => {
+                return Err(self.err(
+                    e.line,
+                    format!("array `{name}`: unknown format `{}`", shorten(f)),
+                ));
+            }
+        };
+        if bytes.len() % ty.size() != 0 {
+            return Err(self.err(
+                e.line,
+                format!(
+                    "array `{name}`: {} bytes is not a whole number of {ty_name}",
+                    bytes.len()
+                ),
+            ));
+        }
+        Ok((decode_all(&bytes, ty, self.endian), components))
+    }
+}
+
+fn ints(values: Vec<Value>, layout: &Layout, e: &Element) -> Result<Vec<i64>> {
+    values
+        .into_iter()
+        .map(|v| match v {
+            Value::Int(i) => i64::try_from(i).ok(),
+            Value::Float(_) => None,
+        })
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| {
+            layout.err(
+                e.line,
+                format!(
+                    "array `{}` must hold integers",
+                    e.attr("Name").unwrap_or("")
+                ),
+            )
+        })
+}
+
+fn field(values: Vec<Value>, components: usize) -> FieldData {
+    let f: Vec<f64> = values.into_iter().map(Value::as_f64).collect();
+    match components {
+        1 => FieldData::Scalar(f),
+        3 => FieldData::Vector(
+            f.chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2]))
+                .collect(),
+        ),
+        _ => FieldData::Other {
+            components,
+            values: f,
+        },
+    }
+}
+
+/// Everything in a VTU file: points, raw cells, data arrays.
+struct Grid {
+    points: Vec<Vec3>,
+    offsets: Vec<i64>,
+    connectivity: Vec<i64>,
+    types: Vec<i64>,
+    point_data: Vec<(String, FieldData)>,
+    cell_data: Vec<(String, FieldData)>,
+}
+
+fn parse_grid(path: &Path) -> Result<Grid> {
+    let data = read_bytes(path)?;
+    let (root, appended) = xml::parse(path, &data)?;
+    let err = |line: usize, m: String| Error::parse(path, Some(line), m);
+    if root.name != "VTKFile" || root.attr("type") != Some("UnstructuredGrid") {
+        return Err(err(
+            root.line,
+            "not a VTU file: expected <VTKFile type=\"UnstructuredGrid\">".into(),
+        ));
+    }
+    let endian = match root.attr("byte_order").unwrap_or("LittleEndian") {
+        "BigEndian" => Endian::Big,
+        _ => Endian::Little,
+    };
+    let header = match root.attr("header_type").unwrap_or("UInt32") {
+        "UInt64" => Scalar::U64,
+        "UInt32" => Scalar::U32,
+        h => {
+            return Err(err(
+                root.line,
+                format!("unknown header_type `{}`", shorten(h)),
+            ));
+        }
+    };
+    let zlib = match root.attr("compressor").unwrap_or("") {
+        "" => false,
+        "vtkZLibDataCompressor" => true,
+        c => {
+            return Err(err(
+                root.line,
+                format!(
+                    "compressor `{}` is not supported (zlib is); re-save without compression or with zlib",
+                    shorten(c)
+                ),
+            ));
+        }
+    };
+    let layout = Layout {
+        path,
+        data: &data,
+        endian,
+        header,
+        zlib,
+        appended,
+    };
+    let grid = root
+        .child("UnstructuredGrid")
+        .ok_or_else(|| err(root.line, "no <UnstructuredGrid>".into()))?;
+    // Every appended offset, sorted, to bound base64 arrays.
+    let mut offsets: Vec<usize> = Vec::new();
+    fn collect(e: &Element, out: &mut Vec<usize>) {
+        if let Some(o) = e.attr("offset").and_then(|o| o.trim().parse().ok()) {
+            out.push(o);
+        }
+        e.children.iter().for_each(|c| collect(c, out));
+    }
+    collect(grid, &mut offsets);
+    offsets.sort_unstable();
+    let mut g = Grid {
+        points: Vec::new(),
+        offsets: vec![0],
+        connectivity: Vec::new(),
+        types: Vec::new(),
+        point_data: Vec::new(),
+        cell_data: Vec::new(),
+    };
+    for piece in grid.children.iter().filter(|c| c.name == "Piece") {
+        let count = |name: &str| -> Result<usize> {
+            piece
+                .attr(name)
+                .and_then(|n| n.trim().parse().ok())
+                .ok_or_else(|| err(piece.line, format!("<Piece> has no valid {name}")))
+        };
+        let (np, nc) = (count("NumberOfPoints")?, count("NumberOfCells")?);
+        let base = g.points.len() as i64;
+        let pts = piece
+            .child("Points")
+            .and_then(|p| p.child("DataArray"))
+            .ok_or_else(|| err(piece.line, "<Piece> has no <Points> array".into()))?;
+        let (values, comps) = layout.array(pts, &offsets)?;
+        if comps != 3 || values.len() != 3 * np {
+            return Err(err(
+                pts.line,
+                format!(
+                    "points: expected {np} points of 3 components, found {} values of {comps}",
+                    values.len()
+                ),
+            ));
+        }
+        g.points.extend(
+            values
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0].as_f64(), c[1].as_f64(), c[2].as_f64())),
+        );
+        let cells = piece
+            .child("Cells")
+            .ok_or_else(|| err(piece.line, "<Piece> has no <Cells>".into()))?;
+        let named = |n: &str| {
+            cells
+                .children
+                .iter()
+                .find(|c| c.attr("Name") == Some(n))
+                .ok_or_else(|| err(cells.line, format!("<Cells> has no `{n}` array")))
+        };
+        let (conn_e, off_e, ty_e) = (named("connectivity")?, named("offsets")?, named("types")?);
+        let connectivity = ints(layout.array(conn_e, &offsets)?.0, &layout, conn_e)?;
+        let ends = ints(layout.array(off_e, &offsets)?.0, &layout, off_e)?;
+        let types = ints(layout.array(ty_e, &offsets)?.0, &layout, ty_e)?;
+        if ends.len() != nc || types.len() != nc {
+            return Err(err(
+                cells.line,
+                format!(
+                    "{nc} cells announced, but {} offsets and {} types",
+                    ends.len(),
+                    types.len()
+                ),
+            ));
+        }
+        let conn_base = g.connectivity.len() as i64;
+        g.connectivity
+            .extend(connectivity.iter().map(|&v| v.saturating_add(base)));
+        g.offsets
+            .extend(ends.iter().map(|&o| o.saturating_add(conn_base)));
+        g.types.extend(types);
+        for (section, n, out) in [
+            ("PointData", np, &mut g.point_data),
+            ("CellData", nc, &mut g.cell_data),
+        ] {
+            for a in piece.child(section).map_or(&[][..], |s| &s.children[..]) {
+                let name = a.attr("Name").unwrap_or("").to_string();
+                let (values, comps) = layout.array(a, &offsets)?;
+                if values.len() != n * comps {
+                    return Err(err(
+                        a.line,
+                        format!(
+                            "array `{}`: {} values for {n} items of {comps} components",
+                            shorten(&name),
+                            values.len()
+                        ),
+                    ));
+                }
+                let f = field(values, comps);
+                match out.iter_mut().find(|(k, _)| *k == name) {
+                    Some((_, existing)) => append_field(existing, f),
+                    None => out.push((name, f)),
+                }
+            }
+        }
+    }
+    Ok(g)
+}
+
+fn append_field(a: &mut FieldData, b: FieldData) {
+    match (a, b) {
+        (FieldData::Scalar(a), FieldData::Scalar(b)) => a.extend(b),
+        (FieldData::Vector(a), FieldData::Vector(b)) => a.extend(b),
+        (FieldData::Other { values: a, .. }, FieldData::Other { values: b, .. }) => a.extend(b),
+        _ => {}
+    }
+}
+
+/// Read a `.vtu` file as a tet mesh (for [`super::read_mesh`]).
+pub fn read(path: &Path) -> Result<Parsed> {
+    let g = parse_grid(path)?;
+    tets_from_cells(path, g.points, &g.offsets, &g.connectivity, &g.types)
+}
+
+/// Read a `.vtu` frame back: points, tets and data arrays (e.g. tetsim's `frame_NNNN.vtu`).
+pub fn read_vtu_frame(path: &Path) -> Result<Frame> {
+    let g = parse_grid(path)?;
+    let parsed = tets_from_cells(path, g.points, &g.offsets, &g.connectivity, &g.types)?;
+    let cells: Vec<usize> = parsed
+        .mesh
+        .tet_ids
+        .iter()
+        .flatten()
+        .map(|&c| c as usize)
+        .collect();
+    let cell_data = g
+        .cell_data
+        .into_iter()
+        .map(|(name, f)| {
+            let f = match f {
+                FieldData::Scalar(v) => FieldData::Scalar(cells.iter().map(|&c| v[c]).collect()),
+                FieldData::Vector(v) => FieldData::Vector(cells.iter().map(|&c| v[c]).collect()),
+                FieldData::Other { components, values } => FieldData::Other {
+                    components,
+                    values: cells
+                        .iter()
+                        .flat_map(|&c| values[c * components..(c + 1) * components].iter().copied())
+                        .collect(),
+                },
+            };
+            (name, f)
+        })
+        .collect();
+    Ok(Frame {
+        points: parsed.mesh.positions,
+        tets: parsed.mesh.tets,
+        point_data: g.point_data,
+        cell_data,
+    })
+}
+
+/// Write a VTU file of tets with point and cell data (raw appended binary, uncompressed).
+/// Every field must have one entry per point (per tet for cell data).
+pub fn write_vtu(
+    path: &Path,
+    points: &[Vec3],
+    tets: &[[usize; 4]],
+    point_data: &[(&str, Field)],
+    cell_data: &[(&str, Field)],
+) -> Result<()> {
+    write_vtu_with(
+        path,
+        points,
+        tets,
+        point_data,
+        cell_data,
+        VtuOptions::default(),
+    )
+}
+
+/// Size of the blocks zlib compresses (VTK's default).
+const ZLIB_BLOCK: usize = 1 << 15;
+
+/// A binary array's payload: UInt64 header, then the data, compressed in blocks or not.
+fn payload(data: &[u8], zlib: bool) -> Vec<u8> {
+    let mut out = Vec::with_capacity(data.len() + 32);
+    if !zlib {
+        out.extend_from_slice(&(data.len() as u64).to_le_bytes());
+        out.extend_from_slice(data);
+        return out;
+    }
+    let blocks: Vec<Vec<u8>> = data
+        .chunks(ZLIB_BLOCK)
+        .map(|chunk| {
+            let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+            e.write_all(chunk).expect("writing to a Vec cannot fail");
+            e.finish().expect("writing to a Vec cannot fail")
+        })
+        .collect();
+    let last = match data.len() % ZLIB_BLOCK {
+        0 if !data.is_empty() => ZLIB_BLOCK,
+        r => r,
+    };
+    for h in [blocks.len(), ZLIB_BLOCK, last]
+        .into_iter()
+        .chain(blocks.iter().map(Vec::len))
+    {
+        out.extend_from_slice(&(h as u64).to_le_bytes());
+    }
+    blocks.iter().for_each(|b| out.extend_from_slice(b));
+    out
+}
+
+/// [`write_vtu`] with a choice of encoding and compression.
+pub fn write_vtu_with(
+    path: &Path,
+    points: &[Vec3],
+    tets: &[[usize; 4]],
+    point_data: &[(&str, Field)],
+    cell_data: &[(&str, Field)],
+    options: VtuOptions,
+) -> Result<()> {
+    for (what, data, n) in [
+        ("point", point_data, points.len()),
+        ("cell", cell_data, tets.len()),
+    ] {
+        if let Some((name, f)) = data.iter().find(|(_, f)| f.len() != n) {
+            return Err(Error::parameter(
+                format!("{what} data `{name}`"),
+                format!("has {} entries for {n} {what}s", f.len()),
+            ));
+        }
+    }
+    let f64s = |v: &mut Vec<u8>, x: f64| v.extend_from_slice(&x.to_le_bytes());
+    let vec_bytes = |vs: &[Vec3]| {
+        let mut b = Vec::with_capacity(24 * vs.len());
+        vs.iter()
+            .for_each(|p| p.iter().for_each(|&c| f64s(&mut b, c)));
+        b
+    };
+    let field_bytes = |f: &Field| match f {
+        Field::Scalar(s) => {
+            let mut b = Vec::with_capacity(8 * s.len());
+            s.iter().for_each(|&x| f64s(&mut b, x));
+            (b, 1)
+        }
+        Field::Vector(v) => (vec_bytes(v), 3),
+    };
+    // (section, name, type, components, bytes)
+    let mut arrays: Vec<(&str, String, &str, usize, Vec<u8>)> = Vec::new();
+    for (name, f) in point_data {
+        let (b, c) = field_bytes(f);
+        arrays.push(("PointData", name.to_string(), "Float64", c, b));
+    }
+    for (name, f) in cell_data {
+        let (b, c) = field_bytes(f);
+        arrays.push(("CellData", name.to_string(), "Float64", c, b));
+    }
+    arrays.push(("Points", "Points".into(), "Float64", 3, vec_bytes(points)));
+    let conn: Vec<u8> = tets
+        .iter()
+        .flatten()
+        .flat_map(|&v| (v as i64).to_le_bytes())
+        .collect();
+    let offs: Vec<u8> = (1..=tets.len() as i64)
+        .flat_map(|k| (4 * k).to_le_bytes())
+        .collect();
+    arrays.push(("Cells", "connectivity".into(), "Int64", 1, conn));
+    arrays.push(("Cells", "offsets".into(), "Int64", 1, offs));
+    arrays.push((
+        "Cells",
+        "types".into(),
+        "UInt8",
+        1,
+        vec![VTK_TETRA as u8; tets.len()],
+    ));
+    let payloads: Vec<Vec<u8>> = arrays.iter().map(|a| payload(&a.4, options.zlib)).collect();
+    atomic_write(path, |w| {
+        let compressor = if options.zlib {
+            " compressor=\"vtkZLibDataCompressor\""
+        } else {
+            ""
+        };
+        writeln!(w, "<?xml version=\"1.0\"?>")?;
+        writeln!(
+            w,
+            "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\"{compressor}>"
+        )?;
+        writeln!(
+            w,
+            "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">",
+            points.len(),
+            tets.len()
+        )?;
+        let mut offset = 0;
+        let mut open: Option<&str> = None;
+        for (a, p) in arrays.iter().zip(&payloads) {
+            if open != Some(a.0) {
+                if let Some(s) = open {
+                    writeln!(w, "      </{s}>")?;
+                }
+                writeln!(w, "      <{}>", a.0)?;
+                open = Some(a.0);
+            }
+            let comps = if a.3 == 1 {
+                String::new()
+            } else {
+                format!(" NumberOfComponents=\"{}\"", a.3)
+            };
+            let head = format!(
+                "        <DataArray type=\"{}\" Name=\"{}\"{comps}",
+                a.2,
+                xml::escape(&a.1)
+            );
+            if options.base64 {
+                // Compressed: header and data encoded apart, as VTK does and meshio expects.
+                let split = if options.zlib {
+                    let blocks = u64::from_le_bytes(p[..8].try_into().expect("an 8-byte header"));
+                    8 * (3 + blocks as usize)
+                } else {
+                    0
+                };
+                write!(w, "{head} format=\"binary\">")?;
+                if split > 0 {
+                    write!(w, "{}", BASE64.encode(&p[..split]))?;
+                }
+                writeln!(w, "{}</DataArray>", BASE64.encode(&p[split..]))?;
+            } else {
+                writeln!(w, "{head} format=\"appended\" offset=\"{offset}\"/>")?;
+                offset += p.len();
+            }
+        }
+        if let Some(s) = open {
+            writeln!(w, "      </{s}>")?;
+        }
+        writeln!(w, "    </Piece>\n  </UnstructuredGrid>")?;
+        if !options.base64 {
+            write!(w, "  <AppendedData encoding=\"raw\">\n   _")?;
+            for p in &payloads {
+                w.write_all(p)?;
+            }
+            writeln!(w, "\n  </AppendedData>")?;
+        }
+        writeln!(w, "</VTKFile>")
+    })
+}
+
+/// Write a ParaView collection listing `(time in s, file name relative to the .pvd)` entries.
+pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<()> {
+    atomic_write(path, |w| {
+        writeln!(
+            w,
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>"
+        )?;
+        for (t, file) in entries {
+            writeln!(
+                w,
+                "    <DataSet timestep=\"{t:?}\" group=\"\" part=\"0\" file=\"{}\"/>",
+                xml::escape(file)
+            )?;
+        }
+        writeln!(w, "  </Collection>\n</VTKFile>")
+    })
+}
+
+/// Read a `.pvd` collection back: `(time, file)` entries in file order.
+pub fn read_pvd(path: &Path) -> Result<Vec<(f64, String)>> {
+    let data = read_bytes(path)?;
+    let (root, _) = xml::parse(path, &data)?;
+    let collection = root
+        .child("Collection")
+        .ok_or_else(|| Error::parse(path, Some(root.line), "no <Collection>"))?;
+    collection
+        .children
+        .iter()
+        .filter(|d| d.name == "DataSet")
+        .map(|d| {
+            let t = d
+                .attr("timestep")
+                .unwrap_or("0")
+                .trim()
+                .parse()
+                .map_err(|_| Error::parse(path, Some(d.line), "bad timestep"))?;
+            let file = d
+                .attr("file")
+                .ok_or_else(|| Error::parse(path, Some(d.line), "<DataSet> without file"))?;
+            Ok((t, file.to_string()))
+        })
+        .collect()
+}
