@@ -25,6 +25,8 @@
 //! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`error`]: typed, located errors.
+//! - [`render`]: headless pictures: software renderer → PNG and GIF, plots of `steps.csv`.
+//! - [`progress`]: the run display: progress bar and end-of-run summary.
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
@@ -34,6 +36,8 @@ pub mod error;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod progress;
+pub mod render;
 
 pub use elastic::{ElasticBody, Linearization};
 pub use error::{Error, MeshProblem, Result};
