@@ -7,7 +7,8 @@ use std::time::Instant;
 
 use tetsim::mesh::generate::box_mesh;
 use tetsim::render::{
-    self, Bounds, FieldKind, Image, Plane, RenderMesh, RenderParams, SceneView, Shading,
+    self, Bounds, FieldKind, Image, Plane, RenderMesh, RenderParams, RunFrame, RunPictureParams,
+    SceneView, Shading,
 };
 use tetsim::{ElasticBody, Lame, Model, ModelKind, TetMesh, Vec3};
 
@@ -300,6 +301,64 @@ fn gif_has_every_frame_at_the_right_size() {
     );
     let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert_eq!(leftovers.len(), 1, "temporary files left behind");
+}
+
+/// A run's pictures: the preview at its size and a GIF with every frame at the GIF size.
+#[test]
+fn run_writes_preview_and_animation() {
+    let (mesh, fixed) = beam([8, 2, 2]);
+    let body = body(&mesh);
+    let rm = RenderMesh::new(&mesh);
+    let positions: Vec<Vec<Vec3>> = (0..4)
+        .map(|k| bend(&mesh.positions, 0.4 * k as f64))
+        .collect();
+    let fields: Vec<Vec<f64>> = positions
+        .iter()
+        .map(|x| render::field_values(FieldKind::J, &body, x))
+        .collect();
+    let frames: Vec<RunFrame> = positions
+        .iter()
+        .zip(&fields)
+        .enumerate()
+        .map(|(k, (x, v))| RunFrame {
+            frame: 2 * k,
+            time: 0.1 * k as f64,
+            positions: x,
+            field: v,
+        })
+        .collect();
+    let params = RunPictureParams {
+        preview: RenderParams {
+            width: 160,
+            height: 120,
+            field: Some(FieldKind::J),
+            ..RenderParams::default()
+        },
+        gif_width: 80,
+        gif_height: 60,
+        gif_delay_cs: 5,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let written = render::render_run(&rm, &fixed, &frames, &params, dir.path()).unwrap();
+    assert_eq!(
+        written,
+        vec![
+            dir.path().join("preview.png"),
+            dir.path().join("animation.gif")
+        ]
+    );
+    let preview = Image::decode_png(&std::fs::read(&written[0]).unwrap()).unwrap();
+    assert_eq!((preview.width, preview.height), (160, 120));
+    let gif = decode_gif_frames(&std::fs::read(&written[1]).unwrap());
+    assert_eq!(gif.len(), 4);
+    assert!(gif.iter().all(|f| (f.width, f.height) == (80, 60)));
+    // The wrong number of values is an error naming the frame.
+    let short = [RunFrame {
+        field: &[1.0],
+        ..frames[0]
+    }];
+    let err = render::render_run(&rm, &fixed, &short, &params, dir.path()).unwrap_err();
+    assert!(err.to_string().contains("frame 0"), "{err}");
 }
 
 /// Tets that touch the surface carry 1, interior tets 0: from outside only 1 (yellow) shows;

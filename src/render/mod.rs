@@ -14,6 +14,10 @@
 //!    units and ticks, and a caption (frame, time).
 //! 4. [`Image::write_png`] and [`write_gif`] write the results atomically (temp file + rename).
 //!
+//! [`render_run`] does all of this for a run: `preview.png` (the last frame) and
+//! `animation.gif` (every frame given), one camera and one colour range for all frames.
+//! [`plot_steps`] draws `steps.csv`.
+//!
 //! Colours are computed in linear light and encoded as sRGB at the end, so the anti-aliasing
 //! average is right. Everything is deterministic: the same input gives the same bytes, on any
 //! number of threads.
@@ -22,10 +26,12 @@ mod animation;
 mod camera;
 mod colormap;
 mod field;
+mod floor;
 mod geometry;
 mod image;
 pub mod plot;
 mod raster;
+mod run;
 mod text;
 
 use std::fmt;
@@ -41,6 +47,7 @@ pub use field::{displacement_magnitudes, field_range, field_values, von_mises};
 pub use geometry::RenderMesh;
 pub use image::Image;
 pub use plot::plot_steps;
+pub use run::{RunFrame, RunPictureParams, gif_delay_cs, render_run};
 
 /// What colours the surface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::colormap::{LinearViridis, SrgbEncoder, srgb_to_linear};
+use super::floor::Floor;
 use super::geometry::{Tri, build_triangles};
 use super::image::Image;
 use super::text::{self, Align, INK, MARKER_EDGE, MARKER_FILL};
@@ -26,8 +27,6 @@ const CAP_PLAIN: [u8; 3] = [214, 168, 134];
 const NO_VALUE: [u8; 3] = [150, 150, 150];
 const SKY_TOP: [u8; 3] = [252, 252, 253];
 const SKY_BOTTOM: [u8; 3] = [208, 213, 221];
-const FLOOR: [u8; 3] = [238, 240, 243];
-const GRID: [u8; 3] = [198, 203, 211];
 
 /// A rectangle in output pixels.
 #[derive(Clone, Copy, Debug)]
@@ -291,182 +290,6 @@ fn rasterize_all(setups: &[Setup], w: usize, h: usize) -> (Vec<f32>, Vec<u32>) {
     (depth, ids)
 }
 
-/// A soft shadow on the floor: the occlusion of the model seen from straight above (stronger
-/// for parts close to the floor), blurred.
-struct ShadowMap {
-    origin: (f64, f64),
-    cell: f64,
-    n: (usize, usize),
-    data: Vec<f32>,
-}
-
-impl ShadowMap {
-    fn new(tris: &[Tri], floor: &Floor, extent: (f64, f64, f64, f64)) -> Self {
-        const CELLS: f64 = 160.0;
-        let (a0, a1, b0, b1) = extent;
-        let size = (a1 - a0).max(b1 - b0).max(1e-300);
-        let blur_cells = 6usize;
-        let pad = size * 0.12;
-        let cell = (size + 2.0 * pad) / CELLS;
-        let origin = (a0 - pad, b0 - pad);
-        let n = (
-            ((a1 - a0 + 2.0 * pad) / cell).ceil() as usize + 1,
-            ((b1 - b0 + 2.0 * pad) / cell).ceil() as usize + 1,
-        );
-        let mut data = vec![0f32; n.0 * n.1];
-        let falloff = 0.6 * floor.size;
-        for t in tris {
-            let ab = t.p.map(|p| {
-                (
-                    (p.dot(&floor.h1) - origin.0) / cell - 0.5,
-                    (p.dot(&floor.h2) - origin.1) / cell - 0.5,
-                )
-            });
-            let height =
-                t.p.iter()
-                    .map(|p| p.dot(&floor.up) - floor.height)
-                    .fold(f64::INFINITY, f64::min)
-                    .max(0.0);
-            let strength = (-height / falloff).exp() as f32;
-            fill_triangle_2d(&ab, n, |i, j| {
-                let v = &mut data[j * n.0 + i];
-                *v = v.max(strength);
-            });
-        }
-        for _ in 0..3 {
-            box_blur(&mut data, n, blur_cells / 2);
-        }
-        ShadowMap {
-            origin,
-            cell,
-            n,
-            data,
-        }
-    }
-
-    /// Bilinear lookup at floor coordinates (a, b); 0 outside.
-    fn sample(&self, a: f64, b: f64) -> f32 {
-        let u = (a - self.origin.0) / self.cell - 0.5;
-        let v = (b - self.origin.1) / self.cell - 0.5;
-        if !(u >= 0.0 && v >= 0.0) {
-            return 0.0;
-        }
-        let (i, j) = (u.floor() as usize, v.floor() as usize);
-        if i + 1 >= self.n.0 || j + 1 >= self.n.1 {
-            return 0.0;
-        }
-        let (fu, fv) = ((u - i as f64) as f32, (v - j as f64) as f32);
-        let at = |i: usize, j: usize| self.data[j * self.n.0 + i];
-        let top = at(i, j) + (at(i + 1, j) - at(i, j)) * fu;
-        let bottom = at(i, j + 1) + (at(i + 1, j + 1) - at(i, j + 1)) * fu;
-        top + (bottom - top) * fv
-    }
-}
-
-/// Call `visit(i, j)` for every grid cell whose centre (i, j) lies in the 2D triangle.
-fn fill_triangle_2d(p: &[(f64, f64); 3], n: (usize, usize), mut visit: impl FnMut(usize, usize)) {
-    let area = (p[1].0 - p[0].0) * (p[2].1 - p[0].1) - (p[1].1 - p[0].1) * (p[2].0 - p[0].0);
-    if area.is_nan() || area.abs() <= 1e-12 {
-        return;
-    }
-    let lo = |f: fn(&(f64, f64)) -> f64, m: usize| {
-        (p.iter()
-            .map(f)
-            .fold(f64::INFINITY, f64::min)
-            .ceil()
-            .max(0.0) as usize)
-            .min(m)
-    };
-    let hi = |f: fn(&(f64, f64)) -> f64, m: usize| {
-        (p.iter().map(f).fold(f64::NEG_INFINITY, f64::max).floor()).clamp(-1.0, m as f64 - 1.0)
-    };
-    let (i0, i1) = (lo(|q| q.0, n.0), hi(|q| q.0, n.0));
-    let (j0, j1) = (lo(|q| q.1, n.1), hi(|q| q.1, n.1));
-    for j in j0 as i64..=j1 as i64 {
-        for i in i0 as i64..=i1 as i64 {
-            let (x, y) = (i as f64, j as f64);
-            let inside = (0..3).all(|k| {
-                let (a, b) = (p[k], p[(k + 1) % 3]);
-                ((b.0 - a.0) * (y - a.1) - (b.1 - a.1) * (x - a.0)) * area.signum() >= 0.0
-            });
-            if inside {
-                visit(i as usize, j as usize);
-            }
-        }
-    }
-}
-
-/// One pass of a separable box blur of radius `r` (clamped at the borders).
-fn box_blur(data: &mut [f32], n: (usize, usize), r: usize) {
-    let mut tmp = vec![0f32; data.len()];
-    let norm = 1.0 / (2 * r + 1) as f32;
-    for j in 0..n.1 {
-        for i in 0..n.0 {
-            let s: f32 = (i.saturating_sub(r)..=(i + r).min(n.0 - 1))
-                .map(|k| data[j * n.0 + k])
-                .sum();
-            tmp[j * n.0 + i] = s * norm;
-        }
-    }
-    for j in 0..n.1 {
-        for i in 0..n.0 {
-            let s: f32 = (j.saturating_sub(r)..=(j + r).min(n.1 - 1))
-                .map(|k| tmp[k * n.0 + i])
-                .sum();
-            data[j * n.0 + i] = s * norm;
-        }
-    }
-}
-
-/// The floor: a plane under the run's bounding box, a metric grid fading out with distance,
-/// and the contact shadow.
-struct Floor {
-    up: Vec3,
-    h1: Vec3,
-    h2: Vec3,
-    height: f64,
-    centre: (f64, f64),
-    radius: f64,
-    size: f64,
-    spacing: f64,
-    eye_height: f64,
-    shadow: Option<ShadowMap>,
-}
-
-impl Floor {
-    fn new(camera: &Camera, tris: &[Tri]) -> Option<Floor> {
-        let up = camera.world_up;
-        let (h1, h2) = Camera::floor_axes(&up);
-        let corners = camera.bounds.corners();
-        let along = |v: &Vec3| corners.map(|c| c.dot(v)).into_iter();
-        let min = |v: &Vec3| along(v).fold(f64::INFINITY, f64::min);
-        let max = |v: &Vec3| along(v).fold(f64::NEG_INFINITY, f64::max);
-        let height = min(&up);
-        let eye_height = camera.eye.dot(&up) - height;
-        if eye_height.is_nan() || eye_height <= 0.0 {
-            return None;
-        }
-        let extent = (min(&h1), max(&h1), min(&h2), max(&h2));
-        let size = (extent.1 - extent.0)
-            .max(extent.3 - extent.2)
-            .max(max(&up) - height);
-        let mut floor = Floor {
-            up,
-            h1,
-            h2,
-            height,
-            centre: (0.5 * (extent.0 + extent.1), 0.5 * (extent.2 + extent.3)),
-            radius: 0.5 * (extent.1 - extent.0).hypot(extent.3 - extent.2) + 0.45 * size,
-            size,
-            spacing: text::nice_step(size / 8.0),
-            eye_height,
-            shadow: None,
-        };
-        floor.shadow = Some(ShadowMap::new(tris, &floor, extent));
-        Some(floor)
-    }
-}
-
 /// Everything needed to shade one sample.
 struct Shader<'a> {
     tris: &'a [Tri],
@@ -482,31 +305,29 @@ struct Shader<'a> {
     world_up: Vec3,
     floor: Option<Floor>,
     sky: ([f32; 3], [f32; 3]),
-    floor_colour: [f32; 3],
-    grid_colour: [f32; 3],
     plain: [f32; 3],
     cap_plain: [f32; 3],
     no_value: [f32; 3],
     height: f64,
 }
 
-fn lin(c: [u8; 3]) -> [f32; 3] {
+pub(crate) fn lin(c: [u8; 3]) -> [f32; 3] {
     c.map(srgb_to_linear)
 }
 
-fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
+pub(crate) fn mix(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
     std::array::from_fn(|i| a[i] + (b[i] - a[i]) * t)
 }
 
 /// The fraction of a box filter of width `filter`, centred at distance `d` from the middle of a
 /// line of half-width `half`, that the line covers.
-fn box_coverage(d: f64, half: f64, filter: f64) -> f64 {
+pub(crate) fn box_coverage(d: f64, half: f64, filter: f64) -> f64 {
     let lo = (d - 0.5 * filter).max(-half);
     let hi = (d + 0.5 * filter).min(half);
     ((hi - lo) / filter).clamp(0.0, 1.0)
 }
 
-fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
+pub(crate) fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
@@ -577,30 +398,11 @@ impl Shader<'_> {
             return sky;
         }
         let t = floor.eye_height / down;
-        let hit = self.proj.eye + ray * t;
-        let (a, b) = (hit.dot(&floor.h1), hit.dot(&floor.h2));
-        let r = ((a - floor.centre.0).powi(2) + (b - floor.centre.1).powi(2)).sqrt();
-        let alpha = 1.0 - smoothstep(0.45 * floor.radius, floor.radius, r);
-        if alpha <= 0.0 {
-            return sky;
-        }
-        // World size of one sample at the hit, stretched by the grazing angle.
+        // World size of the filter at the hit, stretched by the grazing angle.
         let cos = down / ray.norm();
         let footprint = filter * t * ray.norm() / self.proj.focal / cos.max(0.08);
-        let half_line = 0.006 * floor.spacing;
-        let da = (a / floor.spacing - (a / floor.spacing).round()).abs() * floor.spacing;
-        let db = (b / floor.spacing - (b / floor.spacing).round()).abs() * floor.spacing;
-        let (ca, cb) = (
-            box_coverage(da / footprint, half_line / footprint, 1.0),
-            box_coverage(db / footprint, half_line / footprint, 1.0),
-        );
-        let on_line = 1.0 - (1.0 - ca) * (1.0 - cb);
-        let mut c = mix(self.floor_colour, self.grid_colour, on_line as f32);
-        if let Some(shadow) = &floor.shadow {
-            let s = shadow.sample(a, b);
-            c = c.map(|v| v * (1.0 - 0.5 * s));
-        }
-        mix(sky, c, alpha as f32)
+        let (c, alpha) = floor.colour(&(self.proj.eye + ray * t), footprint);
+        mix(sky, c, alpha)
     }
 }
 
@@ -649,8 +451,6 @@ pub(crate) fn render_frame(
             None
         },
         sky: (lin(SKY_TOP), lin(SKY_BOTTOM)),
-        floor_colour: lin(FLOOR),
-        grid_colour: lin(GRID),
         plain: lin(PLAIN),
         cap_plain: lin(CAP_PLAIN),
         no_value: lin(NO_VALUE),
