@@ -671,6 +671,48 @@ fn gallery_for_people() {
                 .unwrap();
         }
     }
+    // A twisted beam at rest-frame bounds plus the twist, and the rest frame itself.
+    let (mesh, fixed) = beam([24, 6, 6]);
+    let rm = RenderMesh::new(&mesh);
+    let twisted: Vec<Vec3> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let a = 0.5 * std::f64::consts::PI * p.x / 4.0;
+            let (y, z) = (p.y - 0.5, p.z - 0.5);
+            Vec3::new(
+                p.x,
+                0.5 + y * a.cos() - z * a.sin(),
+                0.5 + y * a.sin() + z * a.cos(),
+            )
+        })
+        .collect();
+    let mut bounds = Bounds::of(&mesh.positions);
+    bounds.include(&twisted);
+    for (name, x, frame) in [("rest", &mesh.positions, 0), ("twist", &twisted, 30)] {
+        let params = RenderParams {
+            title: "twist.toml".into(),
+            ..RenderParams::default()
+        };
+        let values = render::displacement_magnitudes(&mesh.positions, x);
+        let range =
+            render::field_range([
+                render::displacement_magnitudes(&mesh.positions, &twisted).as_slice()
+            ]);
+        let view = SceneView {
+            mesh: &rm,
+            positions: x,
+            field: &values,
+            fixed: &fixed,
+            time: frame as f64 / 30.0,
+            frame,
+        };
+        let camera = render::fit_camera(&bounds, &params);
+        render::render(&view, &camera, &params, range)
+            .unwrap()
+            .write_png(dir.join(format!("beam_{name}.png")))
+            .unwrap();
+    }
     write_sample_steps_csv(&dir.join("steps.csv"));
     let plots = render::plot_steps(&dir.join("steps.csv"), &dir).unwrap();
     println!("plots: {plots:?}");
@@ -728,4 +770,36 @@ fn decode_gif_frames(bytes: &[u8]) -> Vec<Image> {
         frames.push(screen.clone());
     }
     frames
+}
+
+/// The run display as a person sees it: a progress bar on a terminal (plain lines when
+/// piped), then the summary. Watch it with
+/// `cargo test --test render -- --ignored --nocapture progress_display_demo`.
+#[test]
+#[ignore]
+fn progress_display_demo() {
+    use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
+    let total = 40;
+    let mut display = RunDisplay::new(total, DisplayMode::Auto);
+    let out = Path::new("out");
+    let mut files = Vec::new();
+    for frame in 1..=total {
+        std::thread::sleep(std::time::Duration::from_millis(60));
+        let newton = 2 + frame % 3;
+        display.frame_done(&FrameReport {
+            frame,
+            time: frame as f64 / 30.0,
+            newton_iterations: newton,
+            cg_iterations: 40 * newton + frame % 7,
+            residual: 1e-7 / (1 + frame % 4) as f64,
+            converged: frame != 17,
+            min_j: 1.0 - 0.004 * frame as f64,
+            wall_seconds: 0.06,
+        });
+        files.push(out.join(format!("frame_{frame:04}.vtu")));
+    }
+    for name in ["frames.pvd", "steps.csv", "preview.png", "animation.gif"] {
+        files.push(out.join(name));
+    }
+    println!("{}", display.finish(out, &files));
 }

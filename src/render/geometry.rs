@@ -17,6 +17,9 @@ pub struct RenderMesh {
     on_surface: Vec<bool>,
     incidence_offsets: Vec<usize>,
     incidence: Vec<usize>,
+    /// The face across edge k (corner k → k+1) of each face; `usize::MAX` when there is none
+    /// or more than one (an open or non-manifold edge).
+    neighbours: Vec<[usize; 3]>,
 }
 
 impl RenderMesh {
@@ -78,6 +81,7 @@ impl RenderMesh {
                 fill[v] += 1;
             }
         }
+        let neighbours = face_neighbours(&boundary);
         RenderMesh {
             vertex_count: n,
             tets: mesh.tets.clone(),
@@ -86,6 +90,7 @@ impl RenderMesh {
             on_surface,
             incidence_offsets: offsets,
             incidence,
+            neighbours,
         }
     }
 
@@ -119,6 +124,33 @@ impl RenderMesh {
     }
 }
 
+/// For each face, the face across each of its edges (`usize::MAX`: none, or several).
+fn face_neighbours(faces: &[[usize; 3]]) -> Vec<[usize; 3]> {
+    let mut edges: Vec<((usize, usize), usize, usize)> = Vec::with_capacity(3 * faces.len());
+    for (fi, f) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            edges.push(((a.min(b), a.max(b)), fi, k));
+        }
+    }
+    edges.sort_unstable();
+    let mut out = vec![[usize::MAX; 3]; faces.len()];
+    let mut i = 0;
+    while i < edges.len() {
+        let mut j = i + 1;
+        while j < edges.len() && edges[j].0 == edges[i].0 {
+            j += 1;
+        }
+        if j - i == 2 {
+            let ((_, f0, k0), (_, f1, k1)) = (edges[i], edges[i + 1]);
+            out[f0][k0] = f1;
+            out[f1][k1] = f0;
+        }
+        i = j;
+    }
+    out
+}
+
 /// One triangle to rasterise, in world coordinates.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Tri {
@@ -130,6 +162,9 @@ pub(crate) struct Tri {
     pub value: [f64; 3],
     /// Bit k set: draw the edge from corner k to corner k+1 (mod 3) in wireframe mode.
     pub edges: u8,
+    /// Bit k set: the edge from corner k to k+1 is a feature (a crease sharper than
+    /// [`CREASE_ANGLE_DEG`], an open edge, or where a cut meets the surface): always outlined.
+    pub features: u8,
     /// Part of the cut face of a clipping plane.
     pub cap: bool,
 }
@@ -140,6 +175,8 @@ struct Corner {
     p: Vec3,
     n: Vec3,
     value: f64,
+    /// The polygon edge from this corner to the next is a feature edge.
+    feature_after: bool,
 }
 
 impl Corner {
@@ -150,6 +187,7 @@ impl Corner {
                 .try_normalize(1e-300)
                 .unwrap_or(self.n),
             value: self.value + (other.value - self.value) * t,
+            feature_after: self.feature_after,
         }
     }
 }
@@ -203,14 +241,31 @@ pub(crate) fn build_triangles(view: &SceneView<'_>, params: &RenderParams) -> Ve
         sum.try_normalize(1e-300).unwrap_or(nf)
     };
 
-    let plane = params.clip.map(|p| (p.point, p.normal.normalize()));
+    // Shift the plane a hair towards the kept side: a plane through mesh vertices (z = 0.5 on
+    // a box mesh, say) then cuts the kept tets that touch it, so the cap shows their values
+    // rather than those of the removed tets beyond.
+    let diagonal = super::Bounds::of(x).diagonal();
+    let hair = if diagonal.is_finite() {
+        1e-9 * diagonal
+    } else {
+        0.0
+    };
+    let plane = params.clip.map(|p| {
+        let m = p.normal.normalize();
+        (p.point - m * hair, m)
+    });
     let side = |p: &Vec3| plane.map_or(-1.0, |(q, m)| (p - q).dot(&m));
+    let is_feature = |fi: usize, k: usize| {
+        let g = mesh.neighbours[fi][k];
+        g == usize::MAX || face_normals[g].dot(&face_normals[fi]) < cos_crease
+    };
     let mut tris = Vec::with_capacity(mesh.faces.len() + 64);
     for (fi, f) in mesh.faces.iter().enumerate() {
         if f.iter().any(|&v| !x[v].iter().all(|c| c.is_finite())) {
             continue;
         }
         let corners: [Corner; 3] = std::array::from_fn(|k| Corner {
+            feature_after: is_feature(fi, k),
             p: x[f[k]],
             n: corner_normal(fi, f[k]),
             value: if cell_field {
@@ -226,6 +281,11 @@ pub(crate) fn build_triangles(view: &SceneView<'_>, params: &RenderParams) -> Ve
                 n: corners.map(|c| c.n),
                 value: corners.map(|c| c.value),
                 edges: 0b111,
+                features: corners
+                    .iter()
+                    .enumerate()
+                    .map(|(k, c)| (c.feature_after as u8) << k)
+                    .sum(),
                 cap: false,
             });
         } else if d.iter().any(|&d| d <= 0.0) {
@@ -250,6 +310,8 @@ pub(crate) fn build_triangles(view: &SceneView<'_>, params: &RenderParams) -> Ve
                     poly.push(Corner {
                         p: x[vi] + (x[vj] - x[vi]) * s,
                         n: m,
+                        // The cut's outline is drawn by the clipped surface triangles.
+                        feature_after: false,
                         value: if cell_field {
                             cell_value(t)
                         } else {
@@ -293,7 +355,10 @@ fn clip_polygon(corners: &[Corner; 3], d: &[f64; 3]) -> Vec<Corner> {
             out.push(corners[i]);
         }
         if ki != kj {
-            out.push(corners[i].lerp(&corners[j], d[i] / (d[i] - d[j])));
+            let mut cut = corners[i].lerp(&corners[j], d[i] / (d[i] - d[j]));
+            // Leaving the kept side, the next edge runs along the cut: outline it.
+            cut.feature_after = ki || corners[i].feature_after;
+            out.push(cut);
         }
     }
     out
@@ -311,11 +376,15 @@ fn push_fan(tris: &mut Vec<Tri>, poly: &[Corner], cap: bool) {
         if i + 1 == last {
             edges |= 0b100;
         }
+        let features = (0..3)
+            .filter(|&j| k[j].feature_after)
+            .fold(0, |bits, j| bits | (edges & (1 << j)));
         tris.push(Tri {
             p: k.map(|c| c.p),
             n: k.map(|c| c.n),
             value: k.map(|c| c.value),
             edges,
+            features,
             cap,
         });
     }
@@ -336,6 +405,12 @@ mod tests {
             assert!(f.iter().all(|v| mesh.tets[t].contains(v)));
         }
         assert!(rm.on_surface().iter().all(|&s| s));
+        // A closed surface: every edge has exactly one neighbour across it, symmetrically.
+        for (f, ns) in rm.neighbours.iter().enumerate() {
+            for &g in ns {
+                assert!(g != usize::MAX && rm.neighbours[g].contains(&f));
+            }
+        }
     }
 
     #[test]
@@ -362,7 +437,8 @@ mod tests {
         // Kept box [0, 0.3] × [0, 1]²: the cap is the 1×1 section, the rest 2·0.3·2 + 1.
         assert!((cap - 1.0).abs() < 1e-12, "cap area {cap}");
         assert!(
-            (surface - (1.0 + 4.0 * 0.3)).abs() < 1e-12,
+            // Up to the hair the plane moves towards the kept side.
+            (surface - (1.0 + 4.0 * 0.3)).abs() < 1e-8,
             "surface {surface}"
         );
         assert!(tris.iter().all(|t| t.p.iter().all(|p| p.x <= 0.3 + 1e-12)));

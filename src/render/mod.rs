@@ -207,6 +207,10 @@ pub struct RenderParams {
     pub shading: Shading,
     /// Draw the mesh's triangle edges. Default false.
     pub wireframe: bool,
+    /// Outline feature edges with thin dark lines: creases sharper than
+    /// [`CREASE_ANGLE_DEG`], open edges, and where a cut meets the surface. Default true
+    /// (shapes read better, especially in the dark end of the colour map).
+    pub outline: bool,
     /// Cut the model open with this plane. Default none.
     pub clip: Option<Plane>,
     /// A floor under the whole run's bounding box, with a metric grid and a soft contact
@@ -233,6 +237,7 @@ impl Default for RenderParams {
             field: Some(FieldKind::Displacement),
             shading: Shading::Smooth,
             wireframe: false,
+            outline: true,
             clip: None,
             show_floor: true,
             show_fixed: true,

@@ -300,6 +300,7 @@ struct Shader<'a> {
     has_field: bool,
     shading: Shading,
     wire_half_width: Option<f64>,
+    feature_half_width: Option<f64>,
     key: Vec3,
     fill: Vec3,
     world_up: Vec3,
@@ -365,23 +366,32 @@ impl Shader<'_> {
             let view = -self.proj.ray(px, py).normalize();
             let n = if n.dot(&view) < 0.0 { -n } else { n };
             let hemi = 0.5 + 0.5 * n.dot(&self.world_up);
-            let ambient = 0.16 + 0.16 * hemi;
-            let diffuse = 0.72 * n.dot(&self.key).max(0.0) + 0.26 * n.dot(&self.fill).max(0.0);
+            let ambient = 0.2 + 0.14 * hemi;
+            let diffuse = 0.66 * n.dot(&self.key).max(0.0) + 0.26 * n.dot(&self.fill).max(0.0);
             let half = (self.key + view).normalize();
             let spec = 0.16 * n.dot(&half).max(0.0).powi(48);
             let k = (ambient + diffuse) as f32;
             base.map(|b| b * k + spec as f32)
         };
-        if let Some(hw) = self.wire_half_width {
-            let mut cover = 0.0f64;
-            for k in 0..3 {
-                if tri.edges & (1 << k) != 0 {
-                    let d = s.edge(k, px, py).abs() * s.inv_len[k];
-                    cover = cover.max(box_coverage(d, hw, filter));
+        // Lines: every edge in wireframe mode, feature edges (creases, the cut's rim) always.
+        let mut dark = 0.0f64;
+        for k in 0..3 {
+            let wire = self.wire_half_width.filter(|_| tri.edges & (1 << k) != 0);
+            let feature = self
+                .feature_half_width
+                .filter(|_| tri.features & (1 << k) != 0);
+            if wire.is_some() || feature.is_some() {
+                let d = s.edge(k, px, py).abs() * s.inv_len[k];
+                if let Some(hw) = wire {
+                    dark = dark.max(0.6 * box_coverage(d, hw, filter));
+                }
+                if let Some(hw) = feature {
+                    dark = dark.max(0.7 * box_coverage(d, hw, filter));
                 }
             }
-            let dark = (1.0 - 0.6 * cover) as f32;
-            c = c.map(|v| v * dark);
+        }
+        if dark > 0.0 {
+            c = c.map(|v| v * (1.0 - dark) as f32);
         }
         c
     }
@@ -442,8 +452,11 @@ pub(crate) fn render_frame(
         has_field: params.field.is_some(),
         shading: params.shading,
         wire_half_width: params.wireframe.then_some(0.45 * ss as f64),
-        key: camera_dir(-0.45, 0.7, 0.55),
-        fill: camera_dir(0.75, 0.1, 0.45),
+        feature_half_width: params.outline.then_some(0.5 * ss as f64),
+        // Key light from above, a little right of and behind the camera (so the faces turned
+        // towards the viewer are lit), fill from the left.
+        key: camera_dir(0.25, 0.55, 0.8),
+        fill: camera_dir(-0.75, 0.15, 0.45),
         world_up: camera.world_up,
         floor: if params.show_floor {
             Floor::new(camera, &tris)

@@ -244,7 +244,13 @@ pub(crate) fn draw_colorbar(
         format!("[{unit}]")
     };
     let margin = 0.6 * px;
-    for (line, text, size) in [(1.0, label, px), (0.0, unit_text.as_str(), 0.9 * px)] {
+    // Dimensionless: the label alone, just above the bar.
+    let lines = if unit_text.is_empty() {
+        vec![(0.0, label, px)]
+    } else {
+        vec![(1.0, label, px), (0.0, unit_text.as_str(), 0.9 * px)]
+    };
+    for (line, text, size) in lines {
         let half = 0.5 * text_width(font, size, text);
         let cx = centre
             .min(img.width as f32 - margin - half)
