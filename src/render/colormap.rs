@@ -82,7 +82,8 @@ impl LinearViridis {
 /// Table index and fraction towards the next entry.
 fn locate(t: f64) -> (usize, f64) {
     let x = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) } * 255.0;
-    let i = (x.floor() as usize).min(254);
+    // x ≥ 0, so truncation is floor.
+    let i = (x as usize).min(254);
     (i, x - i as f64)
 }
 
