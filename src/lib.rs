@@ -33,6 +33,8 @@
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`sparse`]: assembled block-sparse matrices; [`bench`]: the `tetsim bench` workload.
 //! - [`error`]: typed, located errors.
+//! - [`render`]: headless pictures: software renderer → PNG and GIF, plots of `steps.csv`.
+//! - [`progress`]: the run display: progress bar and end-of-run summary.
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
@@ -48,6 +50,8 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod output;
+pub mod progress;
+pub mod render;
 pub mod scene;
 pub mod sim;
 pub mod sparse;
