@@ -45,6 +45,42 @@ pub trait Isotropic: Sync + Send {
         let _ = (s, h);
         None
     }
+    /// Ψ̂, p, ∂²Ψ̂/∂σ² and the pair eigenvalues at σ in one call, what the adaptor needs per
+    /// Newton iterate. The default calls the methods above; a model whose terms share costly work
+    /// (logarithms, powers) overrides it to compute that work once. It must return exactly
+    /// (bit for bit) what the separate methods return.
+    #[inline]
+    fn derivatives(&self, s: &Vec3) -> Derivatives {
+        let p = self.dpsi(s);
+        let h = self.d2psi(s);
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (k, &(i, j)) in PAIRS.iter().enumerate() {
+            (pair_sym[k], pair_skew[k]) = self.pair_eigenvalues(s, &p, &h, i, j);
+        }
+        Derivatives {
+            psi: self.psi(s),
+            p,
+            h,
+            pair_sym,
+            pair_skew,
+        }
+    }
+}
+
+/// Everything a model in principal stretches gives at one σ (see [`Isotropic::derivatives`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Derivatives {
+    /// Ψ̂(σ).
+    pub psi: f64,
+    /// p = ∂Ψ̂/∂σ.
+    pub p: Vec3,
+    /// ∂²Ψ̂/∂σ².
+    pub h: Mat3,
+    /// `(pᵢ − pⱼ)/(σᵢ − σⱼ)` for the pairs in [`PAIRS`] order.
+    pub pair_sym: Vec3,
+    /// `(pᵢ + pⱼ)/(σᵢ + σⱼ)` for the same pairs.
+    pub pair_skew: Vec3,
 }
 
 /// Relative gap below which `(pᵢ − pⱼ)/(σᵢ − σⱼ)` is replaced by its limit `Hᵢᵢ − Hᵢⱼ`. At 1e-6
@@ -159,32 +195,31 @@ impl<M: Isotropic> Invertible<M> {
     #[inline]
     pub fn evaluate(&self, f: &Mat3, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
         let svd = svd_rv(f);
-        let s = svd.sigma;
-        let p = self.model.dpsi(&s);
-        let stress = svd.u * Mat3::from_diagonal(&p) * svd.v.transpose();
-        let tangent = self.tangent_at(&svd.u, &svd.v, &s, &p, definiteness);
-        (self.model.psi(&s), stress, tangent)
+        let d = self.model.derivatives(&svd.sigma);
+        let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
+        let tangent = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, definiteness);
+        (d.psi, stress, tangent)
     }
 
-    fn tangent_at(&self, u: &Mat3, v: &Mat3, s: &Vec3, p: &Vec3, d: Definiteness) -> Tangent {
-        let h = self.model.d2psi(s);
-        let mut pair_sym = Vec3::zeros();
-        let mut pair_skew = Vec3::zeros();
-        for (k, &(i, j)) in PAIRS.iter().enumerate() {
-            let (sym, skew) = self.model.pair_eigenvalues(s, p, &h, i, j);
-            pair_sym[k] = sym;
-            pair_skew[k] = skew;
-        }
+    #[inline]
+    fn tangent_at(
+        &self,
+        u: &Mat3,
+        v: &Mat3,
+        s: &Vec3,
+        d: &Derivatives,
+        def: Definiteness,
+    ) -> Tangent {
         let mut tangent = Tangent {
             u: *u,
             v: *v,
-            diag: h,
-            pair_sym,
-            pair_skew,
+            diag: d.h,
+            pair_sym: d.pair_sym,
+            pair_skew: d.pair_skew,
             clamped: 0,
             indefinite: 0,
         };
-        tangent.make_definite(d, || self.model.block_eigensystem(s, &h));
+        tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
     }
 }
@@ -205,8 +240,8 @@ impl<M: Isotropic> Material for Invertible<M> {
 
     fn tangent(&self, f: &Mat3, definiteness: Definiteness) -> Tangent {
         let svd = svd_rv(f);
-        let p = self.model.dpsi(&svd.sigma);
-        self.tangent_at(&svd.u, &svd.v, &svd.sigma, &p, definiteness)
+        let d = self.model.derivatives(&svd.sigma);
+        self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, definiteness)
     }
 }
 
@@ -238,10 +273,12 @@ impl Tangent {
         let (diag, changed) = block(&self.diag);
         self.diag = diag;
         let mut count = changed as u8;
-        for value in self.pair_sym.iter_mut().chain(self.pair_skew.iter_mut()) {
-            if *value < 0.0 {
-                *value = pair(*value);
-                count += 1;
+        for k in 0..3 {
+            for value in [&mut self.pair_sym[k], &mut self.pair_skew[k]] {
+                if *value < 0.0 {
+                    *value = pair(*value);
+                    count += 1;
+                }
             }
         }
         self.clamped = count;

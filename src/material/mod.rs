@@ -32,7 +32,7 @@ pub mod st_venant_kirchhoff;
 pub mod stable_neo_hookean;
 
 pub use corotated::Corotated;
-pub use isotropic::{ExtendedLog, Invertible, Isotropic};
+pub use isotropic::{Derivatives, ExtendedLog, Invertible, Isotropic};
 pub use linear::LinearElastic;
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;

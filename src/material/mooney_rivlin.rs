@@ -27,7 +27,7 @@
 //! The 3×3 block has no simple closed-form eigensystem (`analytic` uses the eigensolver).
 
 use super::Lame;
-use super::isotropic::{ExtendedLog, Isotropic};
+use super::isotropic::{Derivatives, ExtendedLog, Isotropic, PAIRS};
 use super::stable_neo_hookean::cofactors;
 use crate::math::{Mat3, Vec3};
 
@@ -132,22 +132,19 @@ fn grad_i2(s: &Vec3, i1: f64) -> Vec3 {
     s.map(|x| 2.0 * x * (i1 - x * x))
 }
 
-impl Isotropic for MooneyRivlin {
-    fn psi(&self, s: &Vec3) -> f64 {
-        let t = self.terms(s);
+impl MooneyRivlin {
+    fn psi_at(&self, t: &Terms) -> f64 {
         self.c10 * (t.i1 * t.g - 3.0)
             + self.c01 * (t.i2 * t.g * t.g - 3.0)
             + 0.5 * self.kappa * t.l * t.l
     }
 
-    fn dpsi(&self, s: &Vec3) -> Vec3 {
-        let t = self.terms(s);
+    fn dpsi_at(&self, s: &Vec3, t: &Terms) -> Vec3 {
         let dl = s.map(|x| self.log.d1(x));
         2.0 * t.a * s + t.b * grad_i2(s, t.i1) + t.d * cofactors(s) + self.kappa * t.l * dl
     }
 
-    fn d2psi(&self, s: &Vec3) -> Mat3 {
-        let t = self.terms(s);
+    fn d2psi_at(&self, s: &Vec3, t: &Terms) -> Mat3 {
         let gi1 = 2.0 * s;
         let gi2 = grad_i2(s, t.i1);
         let c = cofactors(s);
@@ -175,8 +172,7 @@ impl Isotropic for MooneyRivlin {
         h
     }
 
-    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
-        let t = self.terms(s);
+    fn pair_at(&self, s: &Vec3, t: &Terms, i: usize, j: usize) -> (f64, f64) {
         let m = 3 - i - j;
         let (sm2, sij) = (s[m] * s[m], s[i] * s[j]);
         let kl = self.kappa * t.l;
@@ -188,5 +184,41 @@ impl Isotropic for MooneyRivlin {
                 + t.d * s[m]
                 + kl * self.log.d1_sum_quotient(s[i], s[j]),
         )
+    }
+}
+
+impl Isotropic for MooneyRivlin {
+    fn psi(&self, s: &Vec3) -> f64 {
+        self.psi_at(&self.terms(s))
+    }
+
+    fn dpsi(&self, s: &Vec3) -> Vec3 {
+        self.dpsi_at(s, &self.terms(s))
+    }
+
+    fn d2psi(&self, s: &Vec3) -> Mat3 {
+        self.d2psi_at(s, &self.terms(s))
+    }
+
+    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
+        self.pair_at(s, &self.terms(s), i, j)
+    }
+
+    /// The same as the separate methods with the invariants, the power and the logarithms
+    /// computed once.
+    fn derivatives(&self, s: &Vec3) -> Derivatives {
+        let t = self.terms(s);
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (k, &(i, j)) in PAIRS.iter().enumerate() {
+            (pair_sym[k], pair_skew[k]) = self.pair_at(s, &t, i, j);
+        }
+        Derivatives {
+            psi: self.psi_at(&t),
+            p: self.dpsi_at(s, &t),
+            h: self.d2psi_at(s, &t),
+            pair_sym,
+            pair_skew,
+        }
     }
 }
