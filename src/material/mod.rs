@@ -46,7 +46,7 @@ use crate::math::{Mat3, Vec3};
 /// In the diagonal space of the rotation-variant SVD, ∂P/∂F is one symmetric 3×3 block (∂²Ψ̂/∂σ²,
 /// the "scaling" modes) and six scalar eigenvalues, two per pair of stretches (the "flip" and
 /// "twist" modes, `(pᵢ − pⱼ)/(σᵢ − σⱼ)` and `(pᵢ + pⱼ)/(σᵢ + σⱼ)`). These nine are exactly the
-/// eigenvalues of the 9×9 tangent (Teran et al. 2005 §4, Smith et al. 2019 §5), so every
+/// eigenvalues of the 9×9 tangent (Teran et al. 2005 §4, Smith et al. 2019), so every
 /// strategy below acts on them and then rotates back with U and V. Every strategy but `Exact`
 /// yields a positive semi-definite tangent, and leaves it untouched (bit for bit) where it is
 /// already PSD.

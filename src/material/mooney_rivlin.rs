@@ -7,8 +7,8 @@
 //! Parameters from the small-strain (μ, λ): `μ = 2(C₁₀ + C₀₁)` and the bulk modulus
 //! `κ = λ + 2μ/3`, so that small strains give linear elasticity (checked by the uniaxial test).
 //! The split between the two terms is `C₀₁ = r μ/2`, `C₁₀ = (1 − r) μ/2` with r =
-//! [`DEFAULT_C01_FRACTION`] (a quarter of the shear stiffness from Ī₂, i.e. C₀₁/C₁₀ = 1/3, inside
-//! the range fitted to rubbers); r = 0 is the decoupled compressible Neo-Hookean.
+//! [`DEFAULT_C01_FRACTION`] (a quarter of the shear stiffness from Ī₂, i.e. C₀₁/C₁₀ = 1/3; fit r to data where it
+//! matters, [`MooneyRivlin::with_split`]); r = 0 is the decoupled compressible Neo-Hookean.
 //!
 //! Inversion (the deviation from the analytic model): `J^(−2/3)` is singular at J = 0 and
 //! undefined for an inverted J < 0, and `ln J` too. Below a threshold both are extended:

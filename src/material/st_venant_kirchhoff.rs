@@ -1,6 +1,6 @@
 //! St. Venant-Kirchhoff: `Ψ = μ E:E + λ/2 tr(E)²` with the Green strain `E = (FᵀF − I)/2`,
-//! `P = F·S`, `S = 2μE + λ tr(E) I` (e.g. Bonet & Wood, *Nonlinear Continuum Mechanics for Finite
-//! Element Analysis*, §6.4; Sifakis & Barbič 2012 course notes §3.3).
+//! `P = F·S`, `S = 2μE + λ tr(E) I` (e.g. Sifakis & Barbič 2012, "FEM simulation of 3D deformable
+//! solids", SIGGRAPH course notes).
 //!
 //! In principal stretches, with `eₖ = (σₖ² − 1)/2` and `T = Σeₖ`: `Ψ̂ = μ Σeₖ² + λ/2 T²`,
 //! `pₖ = σₖ(2μeₖ + λT)`, `∂²Ψ̂/∂σ² = diag(2μeₖ + λT + 2μσₖ²) + λσσᵀ`; the pair eigenvalues are
@@ -9,7 +9,7 @@
 //! Its weakness under compression, kept on purpose (this is the textbook model, used to compare):
 //! - it resists compression less and less: under uniaxial stress `P₁₁ = E λ₁(λ₁² − 1)/2`, whose
 //!   magnitude peaks at `λ₁ = 1/√3` and falls to zero at `λ₁ = 0`, so a strongly compressed
-//!   element softens and then collapses (Irving et al. 2004 §1 and §5; Teran et al. 2005 §3);
+//!   element softens and then collapses (discussed by Irving et al. 2004 and Teran et al. 2005);
 //! - Ψ depends on F only through FᵀF, so a reflected F (`FᵀF = I`, `det F = −1`) has zero energy
 //!   and zero stress: an inverted element is not pushed back and may stay inverted, and F = 0
 //!   (a tet collapsed to a point) is a stress-free critical point as well.
