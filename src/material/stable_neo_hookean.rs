@@ -18,8 +18,9 @@
 //! by the volume term. F = 0 exactly is a critical point (every gradient term vanishes there):
 //! a tet collapsed to a single point feels no force, though any perturbation leaves it.
 //!
-//! The 3×3 block is full (its off-diagonal carries λ′(J − α)σₘ) and the paper finds its
-//! eigenvectors numerically, so the `analytic` strategy uses the eigensolver for it here.
+//! The paper's eigenanalysis (§4) gives the six twist and flip eigenvalues in closed form (the
+//! pair eigenvalues above) but leaves the 3×3 scaling block (off-diagonal entries
+//! `λ′(2J − α)σₘ + 2μ′σₖσₗ/(I + 1)²`) to a numerical eigensolver; `analytic` does the same here.
 
 use super::Lame;
 use super::isotropic::Isotropic;
