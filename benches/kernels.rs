@@ -1,4 +1,4 @@
-//! Kernel benchmarks: per-model P and dP, and the mesh-level force evaluation, linearization and
+//! Kernel benchmarks: per-model P and dP, `evaluate` per definiteness strategy, and the mesh-level force evaluation, linearization and
 //! stiffness product on a beam of 4n×n×n Kuhn cubes (n = 20: 192,000 tets).
 //!
 //! `cargo bench --bench kernels`; per-tet figures are the reported time divided by the tet count
@@ -48,6 +48,23 @@ fn material(c: &mut Criterion) {
     group.finish();
 }
 
+/// `evaluate` per definiteness strategy at a compressed, sheared F where the exact tangent is
+/// indefinite (so the fixes do work), for a model with and one without a closed-form block.
+fn definiteness(c: &mut Criterion) {
+    let lame = Lame::from_young_poisson(1e6, 0.45);
+    let f = Mat3::new(0.6, 0.3, -0.1, 0.05, 0.5, 0.3, -0.2, 0.1, 0.7);
+    let mut group = c.benchmark_group("definiteness");
+    for kind in [ModelKind::Corotated, ModelKind::StableNeoHookean] {
+        let model = Model::new(kind, lame);
+        for d in Definiteness::ALL {
+            group.bench_function(format!("{}/{}", kind.name(), d.name()), |b| {
+                b.iter(|| model.evaluate(black_box(&f), d))
+            });
+        }
+    }
+    group.finish();
+}
+
 fn mesh_kernels(c: &mut Criterion) {
     let n = 20;
     let mesh = box_mesh(Vec3::zeros(), Vec3::new(4.0, 1.0, 1.0), [4 * n, n, n]);
@@ -81,5 +98,5 @@ fn mesh_kernels(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, material, mesh_kernels);
+criterion_group!(benches, material, definiteness, mesh_kernels);
 criterion_main!(benches);

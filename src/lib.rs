@@ -17,11 +17,17 @@
 //! `F = U·diag(σ)·Vᵀ` (det U = det V = +1, an inversion carried by σ₃ < 0), extended below an
 //! inversion threshold so that energy, stress and tangent are finite for every F. The tangent
 //! ∂P/∂F splits in diagonal space into a 3×3 block and three 2×2 blocks whose negative
-//! eigenvalues are clamped per element ([`material::Definiteness::Projected`], Teran et al. 2005).
+//! eigenvalues are fixed per element by a [`material::Definiteness`] strategy: `teran` (clamped
+//! to zero, Teran et al. 2005; the default), `analytic` (the same with closed-form eigensystems,
+//! Smith et al. 2019), `abs` (absolute values) or `none` (the exact, possibly indefinite Hessian).
+//! Models ([`material::ModelKind`]): Neo-Hookean, corotated, Stable Neo-Hookean, St.
+//! Venant-Kirchhoff, compressible Mooney-Rivlin, and linear elasticity (on F, not rotation
+//! invariant); all are parametrised by the small-strain Lamé parameters (μ, λ).
 //!
 //! ## Modules
 //! - [`math`]: rotation-variant SVD, symmetric eigensolver, PSD clamp.
-//! - [`material`]: Ψ, P, dP; the principal-stretch adaptor; Neo-Hookean and corotated.
+//! - [`material`]: Ψ, P, dP; the principal-stretch adaptor and definiteness strategies; the six
+//!   models.
 //! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.

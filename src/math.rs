@@ -146,24 +146,68 @@ fn givens_rows(b: &mut Mat3, ut: &mut Mat3, col: usize, p: usize, r: usize) {
     b[(r, col)] = 0.0;
 }
 
+/// True when the symmetric 3×3 matrix is positive semi-definite, decided without an eigensolver:
+/// a diagonally dominant matrix with a non-negative diagonal is PSD, and otherwise every principal
+/// minor (three diagonal entries, three 2×2 minors, the determinant) must be non-negative, which
+/// is necessary and sufficient for a symmetric matrix. A matrix whose smallest eigenvalue is
+/// negative only at rounding level (|λ| ≲ 1e-15·‖a‖) may pass; that is harmless for CG.
+#[inline]
+pub fn is_psd3(a: &Mat3) -> bool {
+    let (a00, a11, a22) = (a[(0, 0)], a[(1, 1)], a[(2, 2)]);
+    let (a01, a02, a12) = (a[(0, 1)], a[(0, 2)], a[(1, 2)]);
+    if a00 < 0.0 || a11 < 0.0 || a22 < 0.0 {
+        return false;
+    }
+    if a00 >= a01.abs() + a02.abs() && a11 >= a01.abs() + a12.abs() && a22 >= a02.abs() + a12.abs()
+    {
+        return true;
+    }
+    let m01 = a00 * a11 - a01 * a01;
+    let m02 = a00 * a22 - a02 * a02;
+    let m12 = a11 * a22 - a12 * a12;
+    if m01 < 0.0 || m02 < 0.0 || m12 < 0.0 {
+        return false;
+    }
+    // Cofactor expansion along the first row.
+    a00 * m12 - a01 * (a01 * a22 - a12 * a02) + a02 * (a01 * a12 - a11 * a02) >= 0.0
+}
+
 /// Project a symmetric 3×3 matrix onto the PSD cone by clamping negative eigenvalues to zero.
 /// Returns the matrix unchanged (bit for bit) when it is already PSD, so that the projected and
 /// exact tangents agree exactly near rest. The bool says whether anything was clamped.
 pub fn clamp_psd3(a: &Mat3) -> (Mat3, bool) {
-    // Cheap exit: a diagonally dominant matrix with a non-negative diagonal is PSD.
-    let dominant = (0..3).all(|i| {
-        let off: f64 = (0..3).filter(|&j| j != i).map(|j| a[(i, j)].abs()).sum();
-        a[(i, i)] >= off
-    });
-    if dominant {
-        return (*a, false);
-    }
-    let (lambda, q) = sym_eigen3(a);
+    map_negative_eigenvalues(a, |l| l.max(0.0))
+}
+
+/// Make a symmetric 3×3 matrix PSD by replacing its eigenvalues by their absolute values (the
+/// `abs` strategy: a negative curvature becomes an equally strong positive one instead of none).
+/// Unchanged (bit for bit) when already PSD; the bool says whether anything changed.
+pub fn abs_psd3(a: &Mat3) -> (Mat3, bool) {
+    map_negative_eigenvalues(a, f64::abs)
+}
+
+/// `Q·diag(map(λ))·Qᵀ` from an eigen-decomposition `a = Q·diag(λ)·Qᵀ`, or `a` itself when no
+/// eigenvalue is negative. `map` must leave non-negative values unchanged.
+pub fn map_eigenvalues(
+    a: &Mat3,
+    lambda: &Vec3,
+    q: &Mat3,
+    map: impl Fn(f64) -> f64,
+) -> (Mat3, bool) {
     if lambda.min() >= 0.0 {
         return (*a, false);
     }
-    let clamped = lambda.map(|l| l.max(0.0));
-    (q * Mat3::from_diagonal(&clamped) * q.transpose(), true)
+    let mapped = lambda.map(map);
+    (q * Mat3::from_diagonal(&mapped) * q.transpose(), true)
+}
+
+fn map_negative_eigenvalues(a: &Mat3, map: impl Fn(f64) -> f64) -> (Mat3, bool) {
+    // The cheap exact test first: near rest (the common case) no eigensolver runs at all.
+    if is_psd3(a) {
+        return (*a, false);
+    }
+    let (lambda, q) = sym_eigen3(a);
+    map_eigenvalues(a, &lambda, &q, map)
 }
 
 /// True when every entry is finite.
@@ -251,6 +295,48 @@ mod tests {
             let f = Mat3::from_fn(|_, _| next());
             check_svd(&f);
         }
+    }
+
+    #[test]
+    fn psd_test_by_minors_agrees_with_eigenvalues() {
+        let mut state = 777u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let (mut psd, mut indefinite) = (0, 0);
+        for _ in 0..5000 {
+            let b = Mat3::from_fn(|_, _| next());
+            // Symmetric, shifted so that about half are PSD; some rank-deficient ones too.
+            let a = b * b.transpose() - Mat3::from_diagonal_element(0.3 * (next() + 1.0));
+            let (l, _) = sym_eigen3(&a);
+            if l.min().abs() < 1e-12 {
+                continue;
+            }
+            assert_eq!(is_psd3(&a), l.min() >= 0.0, "{a} with eigenvalues {l}");
+            if l.min() >= 0.0 {
+                psd += 1;
+            } else {
+                indefinite += 1;
+            }
+        }
+        assert!(psd > 500 && indefinite > 500, "{psd} {indefinite}");
+        let rank_one = Vec3::new(1.0, 2.0, -3.0) * Vec3::new(1.0, 2.0, -3.0).transpose();
+        assert!(is_psd3(&rank_one) && is_psd3(&Mat3::zeros()));
+        assert!(!is_psd3(&-rank_one));
+    }
+
+    #[test]
+    fn abs_flips_negative_eigenvalues() {
+        let b = Mat3::new(1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, -1.0);
+        let (c, changed) = abs_psd3(&b);
+        assert!(changed);
+        let (l, _) = sym_eigen3(&c);
+        assert!((l - Vec3::new(3.0, 1.0, 1.0)).norm() < 1e-13, "{l}");
+        let a = Mat3::new(2.0, 0.5, 0.0, 0.5, 1.0, 0.1, 0.0, 0.1, 3.0);
+        assert_eq!(abs_psd3(&a), (a, false));
     }
 
     #[test]

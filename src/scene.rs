@@ -110,7 +110,8 @@ pub enum Generator {
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct MaterialSpec {
-    /// Constitutive model. Default "neo-hookean".
+    /// Constitutive model: "neo-hookean" (default), "corotated", "stable-neo-hookean",
+    /// "st-venant-kirchhoff", "mooney-rivlin", "linear".
     pub model: ModelKind,
     /// Young's modulus E, Pa. Default 1e5 (when neither E, ν nor μ, λ are given).
     pub youngs_modulus: Option<f64>,
@@ -264,7 +265,7 @@ pub struct SolverSpec {
     pub cg_tolerance: f64,
     /// CG iterations per solve. Default 2000.
     pub cg_max_iterations: usize,
-    /// "projected" (default; alias "teran") or "exact" (alias "none").
+    /// "teran" (default; alias "projected"), "analytic", "abs" or "none" (alias "exact").
     pub definiteness: Definiteness,
     /// "jacobi" (default), "block-jacobi" or "none".
     pub preconditioner: PreconditionerName,

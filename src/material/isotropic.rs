@@ -9,11 +9,11 @@
 //!   (dF̂ᵢⱼ, dF̂ⱼᵢ), whose eigenvectors are the symmetric and antisymmetric combinations with
 //!   eigenvalues `(pᵢ − pⱼ)/(σᵢ − σⱼ)` and `(pᵢ + pⱼ)/(σᵢ + σⱼ)`.
 //!
-//! Definiteness is fixed per element by clamping the negative eigenvalues of these four blocks,
-//! which makes the tangent (and so K) positive semi-definite.
+//! Definiteness is fixed per element by clamping (or flipping, see [`Definiteness`]) the negative
+//! eigenvalues of these four blocks, which makes the tangent (and so K) positive semi-definite.
 
 use super::{Definiteness, Material, Tangent};
-use crate::math::{Mat3, Vec3, clamp_psd3, svd_rv};
+use crate::math::{Mat3, Vec3, abs_psd3, clamp_psd3, is_psd3, map_eigenvalues, svd_rv};
 
 /// The index pairs (i, j), i < j, of the three 2×2 blocks, in the order [`Tangent`] stores them.
 pub const PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
@@ -37,6 +37,50 @@ pub trait Isotropic: Sync + Send {
     fn pair_eigenvalues(&self, s: &Vec3, p: &Vec3, h: &Mat3, i: usize, j: usize) -> (f64, f64) {
         default_pair_eigenvalues(s, p, h, i, j)
     }
+    /// The eigensystem `(λ, Q)` of the 3×3 block `h = ∂²Ψ̂/∂σ²` at σ in closed form
+    /// (`h = Q·diag(λ)·Qᵀ`, Q orthonormal), for the `analytic` strategy (Smith et al. 2019).
+    /// `None` (the default) means the model has no closed form worth having and the numerical
+    /// eigensolver is used instead.
+    fn block_eigensystem(&self, s: &Vec3, h: &Mat3) -> Option<(Vec3, Mat3)> {
+        let _ = (s, h);
+        None
+    }
+    /// Ψ̂, p, ∂²Ψ̂/∂σ² and the pair eigenvalues at σ in one call, what the adaptor needs per
+    /// Newton iterate. The default calls the methods above; a model whose terms share costly work
+    /// (logarithms, powers) overrides it to compute that work once. It must return exactly
+    /// (bit for bit) what the separate methods return.
+    #[inline]
+    fn derivatives(&self, s: &Vec3) -> Derivatives {
+        let p = self.dpsi(s);
+        let h = self.d2psi(s);
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (k, &(i, j)) in PAIRS.iter().enumerate() {
+            (pair_sym[k], pair_skew[k]) = self.pair_eigenvalues(s, &p, &h, i, j);
+        }
+        Derivatives {
+            psi: self.psi(s),
+            p,
+            h,
+            pair_sym,
+            pair_skew,
+        }
+    }
+}
+
+/// Everything a model in principal stretches gives at one σ (see [`Isotropic::derivatives`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Derivatives {
+    /// Ψ̂(σ).
+    pub psi: f64,
+    /// p = ∂Ψ̂/∂σ.
+    pub p: Vec3,
+    /// ∂²Ψ̂/∂σ².
+    pub h: Mat3,
+    /// `(pᵢ − pⱼ)/(σᵢ − σⱼ)` for the pairs in [`PAIRS`] order.
+    pub pair_sym: Vec3,
+    /// `(pᵢ + pⱼ)/(σᵢ + σⱼ)` for the same pairs.
+    pub pair_skew: Vec3,
 }
 
 /// Relative gap below which `(pᵢ − pⱼ)/(σᵢ − σⱼ)` is replaced by its limit `Hᵢᵢ − Hᵢⱼ`. At 1e-6
@@ -151,33 +195,31 @@ impl<M: Isotropic> Invertible<M> {
     #[inline]
     pub fn evaluate(&self, f: &Mat3, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
         let svd = svd_rv(f);
-        let s = svd.sigma;
-        let p = self.model.dpsi(&s);
-        let stress = svd.u * Mat3::from_diagonal(&p) * svd.v.transpose();
-        let tangent = self.tangent_at(&svd.u, &svd.v, &s, &p, definiteness);
-        (self.model.psi(&s), stress, tangent)
+        let d = self.model.derivatives(&svd.sigma);
+        let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
+        let tangent = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, definiteness);
+        (d.psi, stress, tangent)
     }
 
-    fn tangent_at(&self, u: &Mat3, v: &Mat3, s: &Vec3, p: &Vec3, d: Definiteness) -> Tangent {
-        let h = self.model.d2psi(s);
-        let mut pair_sym = Vec3::zeros();
-        let mut pair_skew = Vec3::zeros();
-        for (k, &(i, j)) in PAIRS.iter().enumerate() {
-            let (sym, skew) = self.model.pair_eigenvalues(s, p, &h, i, j);
-            pair_sym[k] = sym;
-            pair_skew[k] = skew;
-        }
+    #[inline]
+    fn tangent_at(
+        &self,
+        u: &Mat3,
+        v: &Mat3,
+        s: &Vec3,
+        d: &Derivatives,
+        def: Definiteness,
+    ) -> Tangent {
         let mut tangent = Tangent {
             u: *u,
             v: *v,
-            diag: h,
-            pair_sym,
-            pair_skew,
+            diag: d.h,
+            pair_sym: d.pair_sym,
+            pair_skew: d.pair_skew,
             clamped: 0,
+            indefinite: 0,
         };
-        if d == Definiteness::Projected {
-            tangent.project();
-        }
+        tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
     }
 }
@@ -198,24 +240,60 @@ impl<M: Isotropic> Material for Invertible<M> {
 
     fn tangent(&self, f: &Mat3, definiteness: Definiteness) -> Tangent {
         let svd = svd_rv(f);
-        let p = self.model.dpsi(&svd.sigma);
-        self.tangent_at(&svd.u, &svd.v, &svd.sigma, &p, definiteness)
+        let d = self.model.derivatives(&svd.sigma);
+        self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, definiteness)
     }
 }
 
 impl Tangent {
-    /// Clamp the negative eigenvalues of the four diagonal-space blocks (Teran et al. 2005, §4).
-    fn project(&mut self) {
-        let (diag, clamped) = clamp_psd3(&self.diag);
+    /// Apply the definiteness strategy `d` to the diagonal-space pieces. `closed_form` gives the
+    /// 3×3 block's eigensystem for `Analytic` (called only then; `None` falls back to `teran`).
+    #[inline]
+    pub(crate) fn make_definite(
+        &mut self,
+        d: Definiteness,
+        closed_form: impl FnOnce() -> Option<(Vec3, Mat3)>,
+    ) {
+        let clamp = |x: f64| x.max(0.0);
+        match d {
+            Definiteness::Exact => self.count_indefinite(),
+            Definiteness::Projected => self.fix(clamp_psd3, clamp),
+            Definiteness::Abs => self.fix(abs_psd3, f64::abs),
+            Definiteness::Analytic => match closed_form() {
+                Some((lambda, q)) => self.fix(|a| map_eigenvalues(a, &lambda, &q, clamp), clamp),
+                None => self.fix(clamp_psd3, clamp),
+            },
+        }
+    }
+
+    /// Apply a definiteness fix: `block` to the 3×3 block (returns the fixed block and whether it
+    /// changed), `pair` to each negative pair eigenvalue (Teran et al. 2005 §4 with `max(0, ·)`).
+    #[inline]
+    fn fix(&mut self, block: impl Fn(&Mat3) -> (Mat3, bool), pair: impl Fn(f64) -> f64) {
+        let (diag, changed) = block(&self.diag);
         self.diag = diag;
-        self.clamped = clamped as u8;
+        let mut count = changed as u8;
         for k in 0..3 {
             for value in [&mut self.pair_sym[k], &mut self.pair_skew[k]] {
                 if *value < 0.0 {
-                    *value = 0.0;
-                    self.clamped += 1;
+                    *value = pair(*value);
+                    count += 1;
                 }
             }
         }
+        self.clamped = count;
+        self.indefinite = count;
+    }
+
+    /// Count the indefinite pieces without changing anything (the `Exact` strategy).
+    #[inline]
+    fn count_indefinite(&mut self) {
+        let negative_pairs = self
+            .pair_sym
+            .iter()
+            .chain(self.pair_skew.iter())
+            .filter(|&&x| x < 0.0)
+            .count() as u8;
+        self.indefinite = negative_pairs + (!is_psd3(&self.diag)) as u8;
     }
 }

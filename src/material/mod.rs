@@ -1,8 +1,18 @@
 //! Constitutive models: F ↦ Ψ(F), P(F) = ∂Ψ/∂F and the stress differential dP = (∂P/∂F):dF.
 //!
-//! Every model is written in principal stretches ([`Isotropic`]) and made a [`Material`] on F by
-//! the one shared adaptor [`Invertible`], which handles the SVD, inversion and definiteness.
-//! Adding a model is one file with Ψ̂, ∂Ψ̂/∂σ and ∂²Ψ̂/∂σ², plus one arm in [`Model`].
+//! Every isotropic model is written in principal stretches ([`Isotropic`]) and made a
+//! [`Material`] on F by the one shared adaptor [`Invertible`], which handles the SVD, inversion
+//! and definiteness. Adding a model is one file with Ψ̂, ∂Ψ̂/∂σ and ∂²Ψ̂/∂σ² (and closed-form
+//! pair eigenvalues), plus one arm in [`Model`], [`ModelKind`] and `with_model!`.
+//!
+//! | scene name | model | inverted / flat F |
+//! |---|---|---|
+//! | `neo-hookean` | [`NeoHookean`], SPEC §2 | extended log, restoring |
+//! | `corotated` | [`Corotated`], SPEC §2 | polynomial, restoring |
+//! | `stable-neo-hookean` | [`StableNeoHookean`], Smith et al. 2018 | polynomial, restoring (F = 0 is critical) |
+//! | `st-venant-kirchhoff` | [`StVenantKirchhoff`] | finite, but reflections cost nothing |
+//! | `mooney-rivlin` | [`MooneyRivlin`], compressible | extended J^(−2/3) and log, restoring |
+//! | `linear` | [`LinearElastic`], small strain | finite; not rotation invariant |
 //!
 //! ```
 //! use tetsim::material::{Lame, Material, Model, ModelKind};
@@ -15,28 +25,103 @@
 
 pub mod corotated;
 pub mod isotropic;
+pub mod linear;
+pub mod mooney_rivlin;
 pub mod neo_hookean;
+pub mod st_venant_kirchhoff;
+pub mod stable_neo_hookean;
 
 pub use corotated::Corotated;
-pub use isotropic::{ExtendedLog, Invertible, Isotropic};
+pub use isotropic::{Derivatives, ExtendedLog, Invertible, Isotropic};
+pub use linear::LinearElastic;
+pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
+pub use st_venant_kirchhoff::StVenantKirchhoff;
+pub use stable_neo_hookean::StableNeoHookean;
 
 use crate::math::{Mat3, Vec3};
 
-/// How the stress differential treats the indefinite parts of ∂P/∂F. Scene names: "projected"
-/// (alias "teran") and "exact" (alias "none").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
+/// How the stress differential treats the indefinite parts of ∂P/∂F, per element.
+///
+/// In the diagonal space of the rotation-variant SVD, ∂P/∂F is one symmetric 3×3 block (∂²Ψ̂/∂σ²,
+/// the "scaling" modes) and six scalar eigenvalues, two per pair of stretches (the "flip" and
+/// "twist" modes, `(pᵢ − pⱼ)/(σᵢ − σⱼ)` and `(pᵢ + pⱼ)/(σᵢ + σⱼ)`). These nine are exactly the
+/// eigenvalues of the 9×9 tangent (Teran et al. 2005 §4, Smith et al. 2019), so every
+/// strategy below acts on them and then rotates back with U and V. Every strategy but `Exact`
+/// yields a positive semi-definite tangent, and leaves it untouched (bit for bit) where it is
+/// already PSD.
+///
+/// Scene names ([`Definiteness::from_name`]): `teran` (the default), `analytic`, `abs`, `none`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Definiteness {
-    /// The exact derivative: for derivative tests and exact-Newton experiments. K may be
+    /// `none`: the exact derivative, for derivative tests and exact-Newton experiments. K may be
     /// indefinite far from rest, and CG may then break down.
-    #[serde(alias = "none")]
     Exact,
-    /// Teran et al. 2005: negative eigenvalues of the diagonal-space blocks clamped to zero per
-    /// element, so K is positive semi-definite. Equal to `Exact` where that is already PSD.
+    /// `teran`: Teran et al. 2005, negative eigenvalues of the 3×3 block (found by a Jacobi
+    /// eigensolver, skipped when an exact minors test shows the block PSD) and of the pairs
+    /// clamped to zero. Equal to `Exact` where that is already PSD.
     #[default]
-    #[serde(alias = "teran")]
     Projected,
+    /// `abs`: negative eigenvalues replaced by their absolute values instead of zero, so a
+    /// direction of negative curvature keeps its stiffness (with the opposite sign) rather than
+    /// becoming free. Often fewer Newton iterations under heavy compression; a larger change to
+    /// the Hessian where it is indefinite.
+    Abs,
+    /// `analytic`: the same clamp as `teran`, with the 3×3 block's eigensystem in closed form
+    /// (Smith et al. 2019) where the model provides one ([`Isotropic::block_eigensystem`]);
+    /// models without one fall back to the numerical eigensolver, so the result equals `teran`
+    /// up to rounding either way. The pair eigenvalues are closed forms for every model.
+    Analytic,
+}
+
+impl Definiteness {
+    /// Every strategy, the default first.
+    pub const ALL: [Definiteness; 4] = [
+        Definiteness::Projected,
+        Definiteness::Analytic,
+        Definiteness::Abs,
+        Definiteness::Exact,
+    ];
+
+    /// `teran`, the scene name of [`Definiteness::Projected`].
+    pub const TERAN: Definiteness = Definiteness::Projected;
+
+    /// `none`, the scene name of [`Definiteness::Exact`].
+    pub const NONE: Definiteness = Definiteness::Exact;
+
+    /// The scene name (`[solver] definiteness = "..."`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Definiteness::Projected => "teran",
+            Definiteness::Analytic => "analytic",
+            Definiteness::Abs => "abs",
+            Definiteness::Exact => "none",
+        }
+    }
+
+    /// The strategy of a scene name, or of an alias (`projected`, `clamp` for `teran`;
+    /// `exact` for `none`; `absolute` for `abs`). Names are case-insensitive.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "teran" | "projected" | "clamp" => Some(Definiteness::Projected),
+            "analytic" => Some(Definiteness::Analytic),
+            "abs" | "absolute" => Some(Definiteness::Abs),
+            "none" | "exact" => Some(Definiteness::Exact),
+            _ => None,
+        }
+    }
+
+    /// True for every strategy that guarantees a positive semi-definite tangent (all but
+    /// `Exact`, with which CG may meet negative curvature and break down).
+    pub fn is_psd(self) -> bool {
+        self != Definiteness::Exact
+    }
+}
+
+impl std::fmt::Display for Definiteness {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// The contract the element kernels use. Units: Ψ in J/m³, P in Pa.
@@ -64,8 +149,11 @@ pub struct Tangent {
     /// Eigenvalue on (dF̂ᵢⱼ − dF̂ⱼᵢ) for the same pairs.
     pub(crate) pair_skew: Vec3,
     /// How many of the seven diagonal-space pieces (the 3×3 block, six pair eigenvalues) the
-    /// projection changed; 0 for `Exact`.
+    /// definiteness strategy changed; 0 for `Exact`.
     pub(crate) clamped: u8,
+    /// How many of the seven pieces were indefinite before any fix, for every strategy
+    /// (including `Exact`, where nothing is changed).
+    pub(crate) indefinite: u8,
 }
 
 impl Tangent {
@@ -84,9 +172,17 @@ impl Tangent {
         self.u * dph * self.v.transpose()
     }
 
-    /// How many diagonal-space pieces the definiteness fix clamped (0 to 7).
+    /// How many diagonal-space pieces (the 3×3 block and six pair eigenvalues, 0 to 7) the
+    /// definiteness strategy changed: clamped to zero (`teran`, `analytic`) or flipped (`abs`).
+    /// Always 0 for `Exact`.
     pub fn clamped_pieces(&self) -> u8 {
         self.clamped
+    }
+
+    /// How many diagonal-space pieces (0 to 7) were indefinite at this F before any fix, whatever
+    /// the strategy: with `Exact`, a non-zero count means K may be indefinite here.
+    pub fn indefinite_pieces(&self) -> u8 {
+        self.indefinite
     }
 }
 
@@ -120,57 +216,124 @@ impl Lame {
     }
 }
 
-/// The models a scene can name (`model = "neo-hookean"`, ...).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
+/// The models a scene can name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ModelKind {
-    /// [`NeoHookean`].
+    /// [`NeoHookean`], `neo-hookean`.
     NeoHookean,
-    /// [`Corotated`].
+    /// [`Corotated`], `corotated`.
     Corotated,
+    /// [`StableNeoHookean`], `stable-neo-hookean`.
+    StableNeoHookean,
+    /// [`StVenantKirchhoff`], `st-venant-kirchhoff`.
+    StVenantKirchhoff,
+    /// [`MooneyRivlin`], `mooney-rivlin`.
+    MooneyRivlin,
+    /// [`LinearElastic`], `linear`.
+    Linear,
 }
 
 impl ModelKind {
+    /// Every model, in the order the docs list them.
+    pub const ALL: [ModelKind; 6] = [
+        ModelKind::NeoHookean,
+        ModelKind::Corotated,
+        ModelKind::StableNeoHookean,
+        ModelKind::StVenantKirchhoff,
+        ModelKind::MooneyRivlin,
+        ModelKind::Linear,
+    ];
+
     /// The scene name of the model (`model = "..."`).
     pub fn name(self) -> &'static str {
         match self {
             ModelKind::NeoHookean => "neo-hookean",
             ModelKind::Corotated => "corotated",
+            ModelKind::StableNeoHookean => "stable-neo-hookean",
+            ModelKind::StVenantKirchhoff => "st-venant-kirchhoff",
+            ModelKind::MooneyRivlin => "mooney-rivlin",
+            ModelKind::Linear => "linear",
         }
     }
 
-    /// Every model, in the order the docs list them.
-    pub const ALL: [ModelKind; 2] = [ModelKind::NeoHookean, ModelKind::Corotated];
+    /// The model of a scene name or alias (`snh`; `stvk`, `saint-venant-kirchhoff`;
+    /// `linear-elastic`, `linear-elasticity`); case-insensitive, `_` and ` ` read as `-`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        let name = name.trim().to_ascii_lowercase().replace(['_', ' '], "-");
+        let kind = match name.as_str() {
+            "snh" => ModelKind::StableNeoHookean,
+            "stvk" | "saint-venant-kirchhoff" => ModelKind::StVenantKirchhoff,
+            "linear-elastic" | "linear-elasticity" => ModelKind::Linear,
+            other => return ModelKind::ALL.into_iter().find(|k| k.name() == other),
+        };
+        Some(kind)
+    }
+
+    /// False for linear elasticity, whose small strain makes rigid rotations cost energy.
+    pub fn is_rotation_invariant(self) -> bool {
+        self != ModelKind::Linear
+    }
+}
+
+impl std::fmt::Display for ModelKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// A material model ready for the element kernels: one arm per model, each the shared adaptor
-/// around a model in principal stretches.
+/// around a model in principal stretches (linear elasticity, not rotation invariant, is a
+/// [`Material`] on F directly).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Model {
     /// Neo-Hookean with the extended log (see [`NeoHookean`]).
     NeoHookean(Invertible<NeoHookean>),
     /// Corotated (see [`Corotated`]).
     Corotated(Invertible<Corotated>),
+    /// Stable Neo-Hookean (see [`StableNeoHookean`]).
+    StableNeoHookean(Invertible<StableNeoHookean>),
+    /// St. Venant-Kirchhoff (see [`StVenantKirchhoff`]).
+    StVenantKirchhoff(Invertible<StVenantKirchhoff>),
+    /// Compressible Mooney-Rivlin (see [`MooneyRivlin`]).
+    MooneyRivlin(Invertible<MooneyRivlin>),
+    /// Linear elasticity (see [`LinearElastic`]).
+    Linear(LinearElastic),
 }
 
-/// Run `$body` with `$m` bound to the concrete `Invertible<_>` inside a [`Model`], so that element
-/// loops are compiled once per model with no dispatch per tet.
+/// Run `$body` with `$m` bound to the concrete material inside a [`Model`] (an `Invertible<_>`,
+/// or [`LinearElastic`]; each has `evaluate(f, definiteness) -> (Ψ, P, Tangent)` and implements
+/// [`Material`]), so that element loops are compiled once per model with no dispatch per tet.
 #[macro_export]
 macro_rules! with_model {
     ($model:expr, $m:ident => $body:expr) => {
         match $model {
             $crate::material::Model::NeoHookean($m) => $body,
             $crate::material::Model::Corotated($m) => $body,
+            $crate::material::Model::StableNeoHookean($m) => $body,
+            $crate::material::Model::StVenantKirchhoff($m) => $body,
+            $crate::material::Model::MooneyRivlin($m) => $body,
+            $crate::material::Model::Linear($m) => $body,
         }
     };
 }
 
 impl Model {
-    /// A model of the given kind with default inversion handling.
+    /// A model of the given kind with its default parameters (inversion thresholds, the
+    /// Mooney-Rivlin split), from the small-strain Lamé parameters.
     pub fn new(kind: ModelKind, lame: Lame) -> Self {
         match kind {
             ModelKind::NeoHookean => Model::NeoHookean(Invertible::new(NeoHookean::new(lame))),
             ModelKind::Corotated => Model::Corotated(Invertible::new(Corotated::new(lame))),
+            ModelKind::StableNeoHookean => {
+                Model::StableNeoHookean(Invertible::new(StableNeoHookean::new(lame)))
+            }
+            ModelKind::StVenantKirchhoff => {
+                Model::StVenantKirchhoff(Invertible::new(StVenantKirchhoff::new(lame)))
+            }
+            ModelKind::MooneyRivlin => {
+                Model::MooneyRivlin(Invertible::new(MooneyRivlin::new(lame)))
+            }
+            ModelKind::Linear => Model::Linear(LinearElastic::new(lame)),
         }
     }
 
@@ -179,10 +342,14 @@ impl Model {
         match self {
             Model::NeoHookean(_) => ModelKind::NeoHookean,
             Model::Corotated(_) => ModelKind::Corotated,
+            Model::StableNeoHookean(_) => ModelKind::StableNeoHookean,
+            Model::StVenantKirchhoff(_) => ModelKind::StVenantKirchhoff,
+            Model::MooneyRivlin(_) => ModelKind::MooneyRivlin,
+            Model::Linear(_) => ModelKind::Linear,
         }
     }
 
-    /// Ψ, P and the tangent from one SVD.
+    /// Ψ, P and the tangent from one SVD (none for linear elasticity).
     pub fn evaluate(&self, f: &Mat3, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
         with_model!(self, m => m.evaluate(f, definiteness))
     }
@@ -200,5 +367,34 @@ impl Material for Model {
     }
     fn tangent(&self, f: &Mat3, definiteness: Definiteness) -> Tangent {
         with_model!(self, m => m.tangent(f, definiteness))
+    }
+}
+
+/// Scene files name a strategy by [`Definiteness::from_name`]; an unknown name lists the valid
+/// ones (toml attaches the line).
+impl<'de> serde::Deserialize<'de> for Definiteness {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Definiteness::from_name(&name).ok_or_else(|| {
+            let names: Vec<&str> = Definiteness::ALL.iter().map(|d| d.name()).collect();
+            serde::de::Error::custom(format!(
+                "unknown definiteness strategy \"{name}\", expected one of {}",
+                names.join(", ")
+            ))
+        })
+    }
+}
+
+/// Scene files name a model by [`ModelKind::from_name`]; an unknown name lists the valid ones.
+impl<'de> serde::Deserialize<'de> for ModelKind {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        ModelKind::from_name(&name).ok_or_else(|| {
+            let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
+            serde::de::Error::custom(format!(
+                "unknown material model \"{name}\", expected one of {}",
+                names.join(", ")
+            ))
+        })
     }
 }

@@ -11,7 +11,7 @@
 //! threshold in every stretch the model is exactly the analytic one.
 
 use super::Lame;
-use super::isotropic::{ExtendedLog, Isotropic};
+use super::isotropic::{Derivatives, ExtendedLog, Isotropic, PAIRS};
 use crate::math::{Mat3, Vec3};
 
 /// Default inversion threshold: stretches below 0.3 (compression to under 30 % along a principal
@@ -45,24 +45,24 @@ impl NeoHookean {
     fn log_j(&self, s: &Vec3) -> f64 {
         s.iter().map(|&x| self.log.value(x)).sum()
     }
-}
 
-impl Isotropic for NeoHookean {
-    fn psi(&self, s: &Vec3) -> f64 {
+    /// `c = λL − μ`, the coefficient of ℓ'(σₖ) in pₖ.
+    fn coefficient(&self, log_j: f64) -> f64 {
+        self.lame.lambda * log_j - self.lame.mu
+    }
+
+    fn psi_at(&self, s: &Vec3, l: f64) -> f64 {
         let Lame { mu, lambda } = self.lame;
-        let l = self.log_j(s);
         0.5 * mu * (s.norm_squared() - 3.0) - mu * l + 0.5 * lambda * l * l
     }
 
-    fn dpsi(&self, s: &Vec3) -> Vec3 {
-        let Lame { mu, lambda } = self.lame;
-        let c = lambda * self.log_j(s) - mu;
+    fn dpsi_at(&self, s: &Vec3, c: f64) -> Vec3 {
+        let mu = self.lame.mu;
         s.map(|x| mu * x + c * self.log.d1(x))
     }
 
-    fn d2psi(&self, s: &Vec3) -> Mat3 {
+    fn d2psi_at(&self, s: &Vec3, c: f64) -> Mat3 {
         let Lame { mu, lambda } = self.lame;
-        let c = lambda * self.log_j(s) - mu;
         let g = s.map(|x| self.log.d1(x));
         let mut h = lambda * g * g.transpose();
         for k in 0..3 {
@@ -71,12 +71,47 @@ impl Isotropic for NeoHookean {
         h
     }
 
-    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
-        let Lame { mu, lambda } = self.lame;
-        let c = lambda * self.log_j(s) - mu;
+    fn pair_at(&self, s: &Vec3, c: f64, i: usize, j: usize) -> (f64, f64) {
+        let mu = self.lame.mu;
         (
             mu + c * self.log.d1_divided_difference(s[i], s[j]),
             mu + c * self.log.d1_sum_quotient(s[i], s[j]),
         )
+    }
+}
+
+impl Isotropic for NeoHookean {
+    fn psi(&self, s: &Vec3) -> f64 {
+        self.psi_at(s, self.log_j(s))
+    }
+
+    fn dpsi(&self, s: &Vec3) -> Vec3 {
+        self.dpsi_at(s, self.coefficient(self.log_j(s)))
+    }
+
+    fn d2psi(&self, s: &Vec3) -> Mat3 {
+        self.d2psi_at(s, self.coefficient(self.log_j(s)))
+    }
+
+    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
+        self.pair_at(s, self.coefficient(self.log_j(s)), i, j)
+    }
+
+    /// The same as the separate methods with log J computed once (three logarithms, not 18).
+    fn derivatives(&self, s: &Vec3) -> Derivatives {
+        let l = self.log_j(s);
+        let c = self.coefficient(l);
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (k, &(i, j)) in PAIRS.iter().enumerate() {
+            (pair_sym[k], pair_skew[k]) = self.pair_at(s, c, i, j);
+        }
+        Derivatives {
+            psi: self.psi_at(s, l),
+            p: self.dpsi_at(s, c),
+            h: self.d2psi_at(s, c),
+            pair_sym,
+            pair_skew,
+        }
     }
 }
