@@ -212,6 +212,19 @@ impl ElasticBody {
             .collect()
     }
 
+    /// Per-tet von Mises stress of the Cauchy stress, Pa (see [`von_mises`]).
+    pub fn von_mises_stresses(&self, x: &[Vec3]) -> Vec<f64> {
+        use crate::material::Material;
+        (0..self.tet_count())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| {
+                let f = self.deformation_gradient(x, t);
+                von_mises(&self.model.stress(&f), &f)
+            })
+            .collect()
+    }
+
     /// Per-tet J = det F.
     pub fn jacobians(&self, x: &[Vec3]) -> Vec<f64> {
         (0..self.tet_count())
@@ -465,6 +478,19 @@ impl ElasticBody {
             row[d] += Mat3::from_diagonal_element(m_scale * masses[i]);
         });
     }
+}
+
+/// Below this J, [`von_mises`] divides by it instead of J: a crushed or inverted tet shows a
+/// large but finite stress rather than one that swamps every colour range or changes sign.
+pub const VON_MISES_MIN_J: f64 = 0.05;
+
+/// The von Mises equivalent (Pa) of the Cauchy stress σ = P·Fᵀ/J: with the deviator
+/// s = σ − tr(σ)/3·I, σ_vM = √(3/2 s:s). J is floored at [`VON_MISES_MIN_J`].
+pub fn von_mises(p: &Mat3, f: &Mat3) -> f64 {
+    let j = f.determinant().max(VON_MISES_MIN_J);
+    let sigma = p * f.transpose() / j;
+    let s = sigma - Mat3::identity() * (sigma.trace() / 3.0);
+    (1.5 * s.norm_squared()).sqrt()
 }
 
 /// The elastic forces of one tet from its stress: `H = −W·P·Bmᵀ`, columns on vertices 1–3,

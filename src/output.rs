@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::integrator::StepStats;
 use crate::io::obj::write_obj;
 use crate::io::{Field, atomic_write, write_pvd, write_vtu};
-use crate::math::{Mat3, Vec3};
+use crate::math::Vec3;
 use crate::sim::Simulation;
 
 /// The steps.csv header. The first eleven columns are the SPEC §10 contract; columns after them
@@ -65,12 +65,7 @@ impl Recorder {
             .collect();
         let j = body.jacobians(x);
         let psi = body.energy_densities(x);
-        let von_mises: Vec<f64> = body
-            .stresses(x)
-            .iter()
-            .enumerate()
-            .map(|(t, p)| von_mises(&body.deformation_gradient(x, t), p))
-            .collect();
+        let von_mises = body.von_mises_stresses(x);
         let path = self.dir.join(&name);
         write_vtu(
             &path,
@@ -122,15 +117,6 @@ impl Recorder {
             self.written.push(path);
         }
     }
-}
-
-/// Von Mises stress of the Cauchy stress σ = P·Fᵀ/J, Pa. For inverted or crushed tets J is
-/// floored at 1e-3 (the Cauchy stress is meaningless there; the field stays finite).
-pub fn von_mises(f: &Mat3, p: &Mat3) -> f64 {
-    let j = f.determinant().max(1e-3);
-    let sigma = p * f.transpose() / j;
-    let dev = sigma - Mat3::identity() * (sigma.trace() / 3.0);
-    (1.5 * dev.norm_squared()).sqrt()
 }
 
 /// One steps.csv row.

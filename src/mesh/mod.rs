@@ -152,8 +152,22 @@ impl TetMesh {
     /// Boundary triangles (faces used by exactly one tet), oriented with outward normals, in a
     /// deterministic order (sorted by their vertex sets).
     pub fn boundary_faces(&self) -> Vec<[usize; 3]> {
-        let mut faces: Vec<([usize; 3], [usize; 3])> = Vec::with_capacity(4 * self.tets.len());
+        self.boundary_faces_with_tets()
+            .into_iter()
+            .map(|(f, _)| f)
+            .collect()
+    }
+
+    /// [`TetMesh::boundary_faces`] with the tet each face belongs to. Tets with out-of-range
+    /// vertex indices are skipped (so this is safe on unvalidated meshes).
+    pub fn boundary_faces_with_tets(&self) -> Vec<([usize; 3], usize)> {
+        let n = self.positions.len();
+        let mut faces: Vec<([usize; 3], [usize; 3], usize)> =
+            Vec::with_capacity(4 * self.tets.len());
         for (t, tet) in self.tets.iter().enumerate() {
+            if tet.iter().any(|&v| v >= n) {
+                continue;
+            }
             let [a, b, c, d] = *tet;
             // Outward for a positively oriented tet; flipped for a negatively oriented one.
             let flip = self.signed_volume(t) < 0.0;
@@ -165,10 +179,10 @@ impl TetMesh {
                 };
                 let mut key = face;
                 key.sort_unstable();
-                faces.push((key, oriented));
+                faces.push((key, oriented, t));
             }
         }
-        faces.sort_unstable_by_key(|f| f.0);
+        faces.sort_unstable_by_key(|f| (f.0, f.2));
         let mut boundary = Vec::new();
         let mut i = 0;
         while i < faces.len() {
@@ -177,7 +191,7 @@ impl TetMesh {
                 j += 1;
             }
             if j - i == 1 {
-                boundary.push(faces[i].1);
+                boundary.push((faces[i].1, faces[i].2));
             }
             i = j;
         }

@@ -1,30 +1,13 @@
 //! The fields a picture can be coloured by, computed from an elastic body and positions, and
 //! the colour range over a whole run.
 
-use rayon::prelude::*;
-
 use super::FieldKind;
 use crate::elastic::ElasticBody;
-use crate::math::{Mat3, Vec3};
-
-/// Below this J the von Mises stress divides the Kirchhoff stress by `VON_MISES_MIN_J` instead
-/// of J: a nearly or fully inverted tet shows a large but finite stress instead of one that
-/// swamps the colour range (or changes sign).
-pub const VON_MISES_MIN_J: f64 = 0.05;
+use crate::math::Vec3;
 
 /// |x − X| per vertex (m).
 pub fn displacement_magnitudes(rest: &[Vec3], x: &[Vec3]) -> Vec<f64> {
     rest.iter().zip(x).map(|(r, p)| (p - r).norm()).collect()
-}
-
-/// The von Mises equivalent stress (Pa) of the Cauchy stress σ = P·Fᵀ / J, given the first
-/// Piola–Kirchhoff stress P and the deformation gradient F: with the deviator
-/// s = σ − tr(σ)/3 · I, σ_vM = √(3/2 · s:s). J is floored at [`VON_MISES_MIN_J`].
-pub fn von_mises(p: &Mat3, f: &Mat3) -> f64 {
-    let j = f.determinant().max(VON_MISES_MIN_J);
-    let sigma = p * f.transpose() / j;
-    let s = sigma - Mat3::identity() * (sigma.trace() / 3.0);
-    (1.5 * s.component_mul(&s).sum()).sqrt()
 }
 
 /// The values of `kind` at positions `x`: one per vertex for [`FieldKind::Displacement`]
@@ -34,13 +17,7 @@ pub fn field_values(kind: FieldKind, body: &ElasticBody, x: &[Vec3]) -> Vec<f64>
         FieldKind::Displacement => displacement_magnitudes(&body.mesh.positions, x),
         FieldKind::J => body.jacobians(x),
         FieldKind::EnergyDensity => body.energy_densities(x),
-        FieldKind::VonMises => {
-            let p = body.stresses(x);
-            p.par_iter()
-                .enumerate()
-                .map(|(t, p)| von_mises(p, &body.deformation_gradient(x, t)))
-                .collect()
-        }
+        FieldKind::VonMises => body.von_mises_stresses(x),
     }
 }
 
@@ -59,6 +36,8 @@ pub fn field_range<'a>(frames: impl IntoIterator<Item = &'a [f64]>) -> (f64, f64
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::elastic::von_mises;
+    use crate::math::Mat3;
 
     #[test]
     fn von_mises_of_uniaxial_and_hydrostatic_stress() {

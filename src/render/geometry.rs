@@ -28,40 +28,8 @@ impl RenderMesh {
     /// [`TetMesh::boundary_faces`]. Tets with out-of-range indices are skipped.
     pub fn new(mesh: &TetMesh) -> Self {
         let n = mesh.positions.len();
-        let mut faces: Vec<([usize; 3], [usize; 3], usize)> =
-            Vec::with_capacity(4 * mesh.tets.len());
-        for (t, tet) in mesh.tets.iter().enumerate() {
-            if tet.iter().any(|&v| v >= n) {
-                continue;
-            }
-            let [a, b, c, d] = *tet;
-            let flip = mesh.signed_volume(t) < 0.0;
-            for face in [[b, c, d], [a, d, c], [a, b, d], [a, c, b]] {
-                let oriented = if flip {
-                    [face[0], face[2], face[1]]
-                } else {
-                    face
-                };
-                let mut key = face;
-                key.sort_unstable();
-                faces.push((key, oriented, t));
-            }
-        }
-        faces.sort_unstable_by_key(|f| (f.0, f.2));
-        let mut boundary = Vec::new();
-        let mut face_tet = Vec::new();
-        let mut i = 0;
-        while i < faces.len() {
-            let mut j = i + 1;
-            while j < faces.len() && faces[j].0 == faces[i].0 {
-                j += 1;
-            }
-            if j - i == 1 {
-                boundary.push(faces[i].1);
-                face_tet.push(faces[i].2);
-            }
-            i = j;
-        }
+        let (boundary, face_tet): (Vec<[usize; 3]>, Vec<usize>) =
+            mesh.boundary_faces_with_tets().into_iter().unzip();
         let mut on_surface = vec![false; n];
         let mut offsets = vec![0usize; n + 1];
         for f in &boundary {

@@ -40,10 +40,11 @@ use std::str::FromStr;
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
+pub use crate::elastic::{VON_MISES_MIN_J, von_mises};
 pub use animation::{encode_gif, write_gif};
 pub use camera::{Bounds, Camera, fit_camera};
 pub use colormap::viridis;
-pub use field::{VON_MISES_MIN_J, displacement_magnitudes, field_range, field_values, von_mises};
+pub use field::{displacement_magnitudes, field_range, field_values};
 pub use geometry::RenderMesh;
 pub use image::Image;
 pub use plot::plot_steps;
