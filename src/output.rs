@@ -66,6 +66,9 @@ impl Recorder {
         let j = body.jacobians(x);
         let psi = body.energy_densities(x);
         let von_mises = body.von_mises_stresses(x);
+        // How many components of each vertex are prescribed (0–3): lets `tetsim render` mark
+        // fixed vertices from the frames alone.
+        let fixed: Vec<f64> = sim.free_mask().iter().map(|m| 3.0 - m.sum()).collect();
         let path = self.dir.join(&name);
         write_vtu(
             &path,
@@ -74,6 +77,7 @@ impl Recorder {
             &[
                 ("displacement", Field::Vector(&displacement)),
                 ("velocity", Field::Vector(&sim.state.v)),
+                ("fixed", Field::Scalar(&fixed)),
             ],
             &[
                 ("J", Field::Scalar(&j)),

@@ -348,6 +348,27 @@ pub struct OutputSpec {
     pub dir: PathBuf,
     /// Write a surface OBJ per frame. Default true.
     pub obj: bool,
+    /// Render `preview.png` (last frame) and `animation.gif` after the run. Default true.
+    pub pictures: bool,
+    /// Plot steps.csv into `steps_*.png` after the run. Default true.
+    pub plots: bool,
+    /// Colour field of the pictures: "displacement" (default), "J", "von-mises",
+    /// "energy-density" or "none".
+    pub field: String,
+    /// Size of `preview.png` in pixels. Default 800 × 600.
+    pub width: u32,
+    /// See `width`.
+    pub height: u32,
+    /// Size of the GIF frames in pixels. Default 480 × 360.
+    pub gif_width: u32,
+    /// See `gif_width`.
+    pub gif_height: u32,
+    /// Every k-th frame goes into the GIF (the last frame always does). Default 1.
+    pub gif_stride: usize,
+    /// Camera azimuth about the up (+y) axis, degrees. Default −35.
+    pub azimuth: f64,
+    /// Camera elevation above the horizon, degrees. Default 22.
+    pub elevation: f64,
 }
 
 impl Default for OutputSpec {
@@ -355,6 +376,16 @@ impl Default for OutputSpec {
         OutputSpec {
             dir: PathBuf::from("out"),
             obj: true,
+            pictures: true,
+            plots: true,
+            field: "displacement".into(),
+            width: 800,
+            height: 600,
+            gif_width: 480,
+            gif_height: 360,
+            gif_stride: 1,
+            azimuth: -35.0,
+            elevation: 22.0,
         }
     }
 }
@@ -465,6 +496,29 @@ impl Scene {
         }
         if s.frames == 0 {
             return fail("solver", "frames", "must be at least 1".into());
+        }
+        let o = &self.output;
+        if let Some(Err(e)) =
+            (o.field != "none").then(|| o.field.parse::<crate::render::FieldKind>())
+        {
+            return fail("output", "field", e.to_string());
+        }
+        for (key, value) in [
+            ("width", o.width),
+            ("height", o.height),
+            ("gif_width", o.gif_width),
+            ("gif_height", o.gif_height),
+        ] {
+            if !(16..=8192).contains(&value) {
+                return fail(
+                    "output",
+                    key,
+                    format!("must be between 16 and 8192 pixels, got {value}"),
+                );
+            }
+        }
+        if o.gif_stride == 0 {
+            return fail("output", "gif_stride", "must be at least 1".into());
         }
         Ok(())
     }

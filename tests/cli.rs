@@ -229,6 +229,34 @@ fn run_default_scene_writes_every_file() {
         rows[3][6].parse::<f64>().unwrap() > 0.0,
         "the beam should store elastic energy"
     );
+    for picture in [
+        "preview.png",
+        "animation.gif",
+        "steps_newton.png",
+        "steps_cg.png",
+        "steps_residual.png",
+        "steps_energy.png",
+    ] {
+        let bytes =
+            std::fs::read(out_dir.join(picture)).unwrap_or_else(|e| panic!("{picture}: {e}"));
+        assert!(bytes.len() > 1000, "{picture} is empty");
+    }
+    // Re-render the saved run from its frames, coloured by J, cut open.
+    let out = tetsim(
+        dir.path(),
+        &[
+            "render", "out", "--field", "J", "--cut", "z", "--out", "again", "--frames", "1..3",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let gif = std::fs::read(dir.path().join("again/animation.gif")).unwrap();
+    assert_eq!(&gif[..6], b"GIF89a");
+    let out = tetsim(dir.path(), &["render", "out", "--frames", "2..9"]);
+    assert!(
+        !out.status.success() && stderr(&out).contains("outside the run"),
+        "{}",
+        stderr(&out)
+    );
     // Nothing left behind half-written.
     assert!(
         std::fs::read_dir(&out_dir).unwrap().all(|e| !e

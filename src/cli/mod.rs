@@ -2,6 +2,7 @@
 
 mod bench;
 pub mod mesh;
+mod render;
 mod run;
 
 use std::process::ExitCode;
@@ -32,6 +33,8 @@ enum Command {
     /// Check and convert meshes.
     #[command(subcommand)]
     Mesh(mesh::MeshCommand),
+    /// Re-render a saved run (its frames.pvd and VTU frames) into preview.png and animation.gif.
+    Render(render::RenderArgs),
     /// Time the cantilever workload of issue 8 at several mesh sizes.
     Bench(bench::BenchArgs),
 }
@@ -60,6 +63,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
+        Command::Render(args) => render::run(args, cli.quiet),
         Command::Bench(args) => bench::run(args, cli.quiet),
     }
 }

@@ -1,13 +1,13 @@
-//! `tetsim run [SCENE] [--out DIR]`.
+//! `tetsim run [SCENE] [--out DIR]`: run a scene, write its frames, then its pictures and plots.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
+use tetsim::math::Vec3;
 use tetsim::output::Recorder;
+use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
+use tetsim::render::{self, FieldKind, RenderMesh, RenderParams, RunFrame, RunPictureParams};
 use tetsim::{Scene, Simulation};
 
 /// Arguments of `tetsim run`.
@@ -24,7 +24,13 @@ pub struct RunArgs {
     /// Run on a mesh the mesh doctor refuses (sets [mesh] force).
     #[arg(long)]
     pub force: bool,
+    /// Skip preview.png, animation.gif and the plots (sets [output] pictures and plots off).
+    #[arg(long)]
+    pub no_pictures: bool,
 }
+
+/// Frames kept in memory for the pictures: (frame, time, positions, field values).
+type Kept = Vec<(usize, f64, Vec<Vec3>, Vec<f64>)>;
 
 pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let mut scene = match &args.scene {
@@ -36,84 +42,123 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         anyhow::ensure!(frames > 0, "--frames must be at least 1");
         scene.solver.frames = frames;
     }
+    if args.no_pictures {
+        scene.output.pictures = false;
+        scene.output.plots = false;
+    }
     let out = args.out.clone().unwrap_or_else(|| scene.output.dir.clone());
-    let started = Instant::now();
     let mut sim = Simulation::from_scene(&scene)?;
     let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)?;
     recorder
         .write_frame(&sim, None)
         .context("writing frame 0")?;
-    let frames = sim.params.frames;
-    let bar = if !quiet && std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(frames as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{bar:30.cyan/blue} {pos}/{len} frames  {per_sec}  ETA {eta}  {msg}",
-            )
-            .expect("valid template"),
-        );
-        Some(bar)
-    } else {
-        None
+    let field = match scene.output.field.as_str() {
+        "none" => None,
+        name => Some(name.parse::<FieldKind>()?),
     };
-    let (mut newton, mut cg, mut unconverged) = (0, 0, Vec::new());
-    let mut worst_residual: f64 = 0.0;
-    let mut min_j = f64::INFINITY;
+    let mut kept: Kept = Vec::new();
+    let keep = |sim: &Simulation, kept: &mut Kept| {
+        if scene.output.pictures {
+            let values = field.map_or_else(Vec::new, |kind| {
+                render::field_values(kind, &sim.body, &sim.state.x)
+            });
+            kept.push((sim.frame(), sim.state.t, sim.state.x.clone(), values));
+        }
+    };
+    keep(&sim, &mut kept);
+
+    let frames = sim.params.frames;
+    let mut display = RunDisplay::new(
+        frames,
+        if quiet {
+            DisplayMode::Quiet
+        } else {
+            DisplayMode::Auto
+        },
+    );
+    let mut failure = None;
     while !sim.is_finished() {
-        let stats = sim.step()?;
+        let stats = match sim.step() {
+            Ok(stats) => stats,
+            Err(error) => {
+                // Stop, but keep what the run produced: frames are on disk; draw them too.
+                failure = Some(error);
+                break;
+            }
+        };
         recorder.write_frame(&sim, Some(&stats))?;
-        newton += stats.newton_iterations;
-        cg += stats.cg_iterations;
-        worst_residual = worst_residual.max(stats.relative_residual);
-        min_j = min_j.min(stats.min_j);
-        if !stats.converged {
-            unconverged.push(stats.frame);
+        display.frame_done(&FrameReport {
+            frame: stats.frame,
+            time: stats.time,
+            newton_iterations: stats.newton_iterations,
+            cg_iterations: stats.cg_iterations,
+            residual: stats.relative_residual,
+            converged: stats.converged,
+            min_j: stats.min_j,
+            wall_seconds: stats.wall_seconds,
+        });
+        if sim.frame() % scene.output.gif_stride == 0 {
+            keep(&sim, &mut kept);
         }
-        let line = format!(
-            "frame {}/{}: {} Newton, {} CG, residual {:.1e}, min J {:.3}{}",
-            stats.frame,
-            frames,
-            stats.newton_iterations,
-            stats.cg_iterations,
-            stats.relative_residual,
-            stats.min_j,
-            if stats.converged {
-                ""
-            } else {
-                "  NOT CONVERGED"
-            }
+    }
+    // The last frame reached is always drawn (it is the preview).
+    if kept.last().is_some_and(|k| k.0 != sim.frame()) {
+        keep(&sim, &mut kept);
+    }
+
+    let mut pictures = Vec::new();
+    if scene.output.pictures && !kept.is_empty() {
+        pictures.extend(draw(&scene, &sim, field, &kept, &out).context("rendering the pictures")?);
+    }
+    if scene.output.plots && sim.frame() > 0 {
+        pictures.extend(
+            render::plot_steps(&out.join("steps.csv"), &out).context("plotting steps.csv")?,
         );
-        match &bar {
-            Some(bar) => {
-                bar.set_message(format!(
-                    "Newton {} CG {}",
-                    stats.newton_iterations, stats.cg_iterations
-                ));
-                bar.inc(1);
-            }
-            None if !quiet => eprintln!("{line}"),
-            None => {}
-        }
     }
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    let mut files = recorder.files().to_vec();
+    files.extend(pictures);
+    let summary = display.finish(&out, &files);
     if !quiet {
-        let wall = started.elapsed().as_secs_f64();
-        eprintln!(
-            "{frames} frames in {wall:.2} s ({:.1} frames/s): {newton} Newton iterations ({:.1}/frame), {cg} CG iterations ({:.0}/Newton), worst relative residual {worst_residual:.1e}, min J {min_j:.3}",
-            frames as f64 / wall,
-            newton as f64 / frames as f64,
-            cg as f64 / newton.max(1) as f64,
-        );
-        if !unconverged.is_empty() {
-            eprintln!("frames that did not converge: {unconverged:?}");
-        }
-        eprintln!(
-            "wrote {} files to {}",
-            recorder.files().len(),
-            recorder.dir().display()
-        );
+        eprintln!("{summary}");
     }
-    Ok(ExitCode::SUCCESS)
+    match failure {
+        Some(error) => Err(error.into()),
+        None => Ok(ExitCode::SUCCESS),
+    }
+}
+
+/// preview.png and animation.gif from the kept frames, one camera and colour range for all.
+fn draw(
+    scene: &Scene,
+    sim: &Simulation,
+    field: Option<FieldKind>,
+    kept: &Kept,
+    out: &std::path::Path,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mesh = RenderMesh::new(&sim.body.mesh);
+    let fixed: Vec<bool> = sim.free_mask().iter().map(|m| m.sum() < 3.0).collect();
+    let frames: Vec<RunFrame<'_>> = kept
+        .iter()
+        .map(|(frame, time, positions, values)| RunFrame {
+            frame: *frame,
+            time: *time,
+            positions,
+            field: values,
+        })
+        .collect();
+    let o = &scene.output;
+    let params = RunPictureParams {
+        preview: RenderParams {
+            width: o.width,
+            height: o.height,
+            azimuth_deg: o.azimuth,
+            elevation_deg: o.elevation,
+            field,
+            ..Default::default()
+        },
+        gif_width: o.gif_width,
+        gif_height: o.gif_height,
+        gif_delay_cs: render::gif_delay_cs(scene.solver.dt * o.gif_stride as f64),
+    };
+    Ok(render::render_run(&mesh, &fixed, &frames, &params, out)?)
 }
