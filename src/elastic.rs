@@ -19,7 +19,6 @@ use crate::material::{Definiteness, Model, Tangent};
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
 use crate::sparse::{BlockCsr, BlockPattern};
-use crate::with_model;
 
 /// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
 /// are the same on any machine.
@@ -78,14 +77,29 @@ impl Incidence {
 pub struct ElasticBody {
     /// The mesh (rest positions, tets, groups).
     pub mesh: TetMesh,
-    /// The material of every tet.
+    /// The material of every tet outside the material regions.
     pub model: Model,
-    /// Density ρ in kg/m³.
+    /// Density ρ in kg/m³ of every tet outside the material regions.
     pub density: f64,
+    /// Materials and densities of the regions (material index k ≥ 1 is `regions[k − 1]`).
+    regions: Vec<(Model, f64)>,
+    /// Material index per tet (0: `model`); empty when the body has one material.
+    tet_material: Vec<u8>,
     bm: Vec<Mat3>,
     volume: Vec<f64>,
     mass: Vec<f64>,
     incidence: Incidence,
+}
+
+/// A set of tets with their own material and density.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialRegion {
+    /// The material.
+    pub model: Model,
+    /// Density, kg/m³.
+    pub density: f64,
+    /// The tets (indices).
+    pub tets: Vec<usize>,
 }
 
 /// Min J and how many tets are inverted, for the steps table.
@@ -102,20 +116,62 @@ impl ElasticBody {
     /// tet). The mesh is validated: every degenerate tet is listed in the error. A negatively
     /// oriented tet is fine (its Bm carries the sign, its F is right).
     pub fn new(mesh: TetMesh, model: Model, density: f64) -> Result<Self> {
+        Self::with_regions(mesh, model, density, Vec::new())
+    }
+
+    /// Like [`ElasticBody::new`], with other materials and densities on sets of tets (Gmsh
+    /// physical volumes, say). Later regions win where they overlap; at most 255 regions.
+    pub fn with_regions(
+        mesh: TetMesh,
+        model: Model,
+        density: f64,
+        regions: Vec<MaterialRegion>,
+    ) -> Result<Self> {
         mesh.validate().map_err(|problem| Error::Mesh {
             path: None,
             problem,
         })?;
-        if !(density > 0.0 && density.is_finite()) {
-            return Err(Error::parameter(
-                "material.density",
-                format!("must be positive and finite (kg/m³), got {density}"),
-            ));
+        for (name, rho) in std::iter::once(("material.density".to_string(), density)).chain(
+            regions
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (format!("volume #{} density", i + 1), r.density)),
+        ) {
+            if !(rho > 0.0 && rho.is_finite()) {
+                return Err(Error::parameter(
+                    name,
+                    format!("must be positive and finite (kg/m³), got {rho}"),
+                ));
+            }
         }
+        if regions.len() > u8::MAX as usize {
+            return Err(Error::parameter("volume", "at most 255 material regions"));
+        }
+        let mut tet_material = Vec::new();
+        if !regions.is_empty() {
+            tet_material = vec![0u8; mesh.tets.len()];
+            for (k, region) in regions.iter().enumerate() {
+                for &t in &region.tets {
+                    if t >= mesh.tets.len() {
+                        return Err(Error::parameter(
+                            "volume",
+                            format!("tet {t} does not exist"),
+                        ));
+                    }
+                    tet_material[t] = (k + 1) as u8;
+                }
+            }
+        }
+        let regions: Vec<(Model, f64)> =
+            regions.into_iter().map(|r| (r.model, r.density)).collect();
+        let density_of = |t: usize| match tet_material.get(t) {
+            Some(&k) if k > 0 => regions[k as usize - 1].1,
+            _ => density,
+        };
         let mut bm = Vec::with_capacity(mesh.tets.len());
         let mut volume = Vec::with_capacity(mesh.tets.len());
         let mut mass = vec![0.0; mesh.positions.len()];
-        for tet in &mesh.tets {
+        for (t, tet) in mesh.tets.iter().enumerate() {
             let dm = TetMesh::edge_matrix(&mesh.positions, tet);
             // Validation guarantees a non-degenerate Dm, so the inverse exists.
             let inv = dm.try_inverse().unwrap_or_else(Mat3::zeros);
@@ -123,7 +179,7 @@ impl ElasticBody {
             bm.push(inv);
             volume.push(w);
             for &v in tet {
-                mass[v] += 0.25 * density * w;
+                mass[v] += 0.25 * density_of(t) * w;
             }
         }
         let incidence = Incidence::new(mesh.positions.len(), &mesh.tets);
@@ -131,11 +187,35 @@ impl ElasticBody {
             mesh,
             model,
             density,
+            regions,
+            tet_material,
             bm,
             volume,
             mass,
             incidence,
         })
+    }
+
+    /// The material of tet t.
+    #[inline]
+    pub fn model_of(&self, t: usize) -> &Model {
+        match self.tet_material.get(t) {
+            Some(&k) if k > 0 => &self.regions[k as usize - 1].0,
+            _ => &self.model,
+        }
+    }
+
+    /// How many tets use each material: the body's own first, then each region's.
+    pub fn material_counts(&self) -> Vec<usize> {
+        let mut counts = vec![0; 1 + self.regions.len()];
+        if self.tet_material.is_empty() {
+            counts[0] = self.tet_count();
+        } else {
+            for &k in &self.tet_material {
+                counts[k as usize] += 1;
+            }
+        }
+        counts
     }
 
     /// Number of vertices.
@@ -172,24 +252,22 @@ impl ElasticBody {
     /// Elastic energy E(x) = Σ W Ψ(F), in J.
     pub fn energy(&self, x: &[Vec3]) -> f64 {
         assert_eq!(x.len(), self.vertex_count());
-        with_model!(&self.model, m => {
-            let chunks: Vec<f64> = (0..self.tet_count())
-                .into_par_iter()
-                .chunks(CHUNK)
-                .map(|ts| {
-                    ts.iter()
-                        .map(|&t| {
-                            self.volume[t]
-                                * crate::material::Material::energy_density(
-                                    m,
-                                    &self.deformation_gradient(x, t),
-                                )
-                        })
-                        .sum::<f64>()
-                })
-                .collect();
-            chunks.iter().sum()
-        })
+        use crate::material::Material;
+        let chunks: Vec<f64> = (0..self.tet_count())
+            .into_par_iter()
+            .chunks(CHUNK)
+            .map(|ts| {
+                ts.iter()
+                    .map(|&t| {
+                        self.volume[t]
+                            * self
+                                .model_of(t)
+                                .energy_density(&self.deformation_gradient(x, t))
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        chunks.iter().sum()
     }
 
     /// Per-tet energy densities Ψ(F), J/m³ (for output fields).
@@ -198,7 +276,10 @@ impl ElasticBody {
         (0..self.tet_count())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .map(|t| self.model.energy_density(&self.deformation_gradient(x, t)))
+            .map(|t| {
+                self.model_of(t)
+                    .energy_density(&self.deformation_gradient(x, t))
+            })
             .collect()
     }
 
@@ -208,7 +289,7 @@ impl ElasticBody {
         (0..self.tet_count())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .map(|t| self.model.stress(&self.deformation_gradient(x, t)))
+            .map(|t| self.model_of(t).stress(&self.deformation_gradient(x, t)))
             .collect()
     }
 
@@ -220,7 +301,7 @@ impl ElasticBody {
             .with_min_len(CHUNK)
             .map(|t| {
                 let f = self.deformation_gradient(x, t);
-                von_mises(&self.model.stress(&f), &f)
+                von_mises(&self.model_of(t).stress(&f), &f)
             })
             .collect()
     }
@@ -248,12 +329,17 @@ impl ElasticBody {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(f.len(), self.vertex_count());
         let mut buffer = vec![[Vec3::zeros(); 4]; self.tet_count()];
-        with_model!(&self.model, m => {
-            buffer.par_iter_mut().enumerate().with_min_len(CHUNK).for_each(|(t, slot)| {
-                let stress = crate::material::Material::stress(m, &self.deformation_gradient(x, t));
+        buffer
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(t, slot)| {
+                let stress = crate::material::Material::stress(
+                    self.model_of(t),
+                    &self.deformation_gradient(x, t),
+                );
                 *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
             });
-        });
         self.incidence.gather(&buffer, f, true);
     }
 
@@ -271,24 +357,25 @@ impl ElasticBody {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(lin.tangents.len(), self.tet_count());
         let definiteness = lin.definiteness;
-        with_model!(&self.model, m => {
-            lin.tangents
-                .par_chunks_mut(CHUNK)
-                .zip(lin.buffer.par_chunks_mut(CHUNK))
-                .zip(lin.chunk_energy.par_iter_mut())
-                .enumerate()
-                .for_each(|(c, ((tangents, buffer), energy))| {
-                    let mut sum = 0.0;
-                    for (k, (tangent, slot)) in tangents.iter_mut().zip(buffer.iter_mut()).enumerate() {
-                        let t = c * CHUNK + k;
-                        let (psi, stress, tan) = m.evaluate(&self.deformation_gradient(x, t), definiteness);
-                        sum += self.volume[t] * psi;
-                        *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
-                        *tangent = tan;
-                    }
-                    *energy = sum;
-                });
-        });
+        lin.tangents
+            .par_chunks_mut(CHUNK)
+            .zip(lin.buffer.par_chunks_mut(CHUNK))
+            .zip(lin.chunk_energy.par_iter_mut())
+            .enumerate()
+            .for_each(|(c, ((tangents, buffer), energy))| {
+                let mut sum = 0.0;
+                for (k, (tangent, slot)) in tangents.iter_mut().zip(buffer.iter_mut()).enumerate() {
+                    let t = c * CHUNK + k;
+                    // A per-tet match on the model: a predictable branch next to an SVD.
+                    let (psi, stress, tan) = self
+                        .model_of(t)
+                        .evaluate(&self.deformation_gradient(x, t), definiteness);
+                    sum += self.volume[t] * psi;
+                    *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
+                    *tangent = tan;
+                }
+                *energy = sum;
+            });
         self.incidence.gather(&lin.buffer, forces, false);
         lin.clamped_tets = lin
             .tangents

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use crate::boundary::{Boundary, Constraint, Load, Motion, Region};
-use crate::elastic::ElasticBody;
+use crate::elastic::{ElasticBody, MaterialRegion};
 use crate::error::{Error, Result};
 use crate::integrator::{Integrator, OnFailure, PreconditionerKind, SolverParams};
 use crate::material::{Definiteness, Lame, Model, ModelKind};
@@ -41,6 +41,9 @@ pub struct Scene {
     /// `[[load]]`: dead loads.
     #[serde(default)]
     pub load: Vec<LoadSpec>,
+    /// `[[volume]]`: other materials on parts of the mesh.
+    #[serde(default)]
+    pub volume: Vec<VolumeSpec>,
     /// `[initial]`.
     #[serde(default)]
     pub initial: InitialSpec,
@@ -136,6 +139,28 @@ impl Default for MaterialSpec {
             density: 1000.0,
         }
     }
+}
+
+/// `[[volume]]`: a material and density for part of the mesh. Keys left out take the value of
+/// `[material]`; E, ν and μ, λ follow the same rules as there.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeSpec {
+    /// Which tets: `{ physical = "name" }` (the tets of a Gmsh physical volume), or a `box` /
+    /// `plane` region (the tets whose centroid it holds).
+    pub region: RegionSpec,
+    /// Constitutive model.
+    pub model: Option<ModelKind>,
+    /// Young's modulus, Pa.
+    pub youngs_modulus: Option<f64>,
+    /// Poisson ratio.
+    pub poisson_ratio: Option<f64>,
+    /// Lamé μ, Pa.
+    pub mu: Option<f64>,
+    /// Lamé λ, Pa.
+    pub lambda: Option<f64>,
+    /// Density, kg/m³.
+    pub density: Option<f64>,
 }
 
 /// A region, as TOML writes it: `{ box = { min, max } }`, `{ plane = { point, normal } }`,
@@ -526,35 +551,27 @@ impl Scene {
     /// Lamé parameters from (E, ν) or (μ, λ), with the range checks of each.
     pub fn lame(&self) -> std::result::Result<Lame, String> {
         let m = &self.material;
-        match (m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda) {
-            (e, nu, None, None) => {
-                let (e, nu) = (e.unwrap_or(1e5), nu.unwrap_or(0.3));
-                if !(e > 0.0 && e.is_finite()) {
-                    return Err(format!("Young's modulus must be positive (Pa), got {e}"));
-                }
-                if !(nu > -1.0 && nu < 0.5) {
-                    return Err(format!(
-                        "Poisson ratio must lie in (-1, 0.5), got {nu} (0.5 is incompressible: λ would be infinite)"
-                    ));
-                }
-                Ok(Lame::from_young_poisson(e, nu))
-            }
-            (None, None, Some(mu), Some(lambda)) => {
-                if !(mu > 0.0
-                    && mu.is_finite()
-                    && lambda.is_finite()
-                    && 3.0 * lambda + 2.0 * mu > 0.0)
-                {
-                    return Err(format!(
-                        "need μ > 0 and 3λ + 2μ > 0 (Pa), got μ = {mu}, λ = {lambda}"
-                    ));
-                }
-                Ok(Lame { mu, lambda })
-            }
-            _ => Err(
-                "give youngs_modulus and poisson_ratio, or mu and lambda (both of one pair)".into(),
-            ),
+        lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)
+    }
+
+    /// Model and density of the i-th `[[volume]]`, with `[material]`'s values where it is silent.
+    pub fn volume_material(&self, i: usize) -> std::result::Result<(Model, f64), String> {
+        let v = &self.volume[i];
+        let m = &self.material;
+        let own = v.youngs_modulus.is_some()
+            || v.poisson_ratio.is_some()
+            || v.mu.is_some()
+            || v.lambda.is_some();
+        let lame = if own {
+            lame_from(v.youngs_modulus, v.poisson_ratio, v.mu, v.lambda)?
+        } else {
+            self.lame()?
+        };
+        let density = v.density.unwrap_or(m.density);
+        if !(density > 0.0 && density.is_finite()) {
+            return Err(format!("density must be positive (kg/m³), got {density}"));
         }
+        Ok((Model::new(v.model.unwrap_or(m.model), lame), density))
     }
 
     /// Resolve a scene-relative path.
@@ -720,17 +737,109 @@ impl Simulation {
         let lame = scene.lame().map_err(|m| Error::parameter("material", m))?;
         let model = Model::new(scene.material.model, lame);
         let mesh_path = scene.mesh.file.as_ref().map(|f| scene.resolve(f));
-        let body = ElasticBody::new(mesh, model, scene.material.density).map_err(|e| match e {
-            Error::Mesh { problem, .. } => Error::Mesh {
-                path: mesh_path.clone(),
-                problem,
-            },
-            other => other,
-        })?;
+        let mut regions = Vec::with_capacity(scene.volume.len());
+        for (i, volume) in scene.volume.iter().enumerate() {
+            let located = |message: String| Error::Scene {
+                path: scene.path.clone(),
+                line: nth_table_line(&scene.source, "volume", i).unwrap_or(1),
+                column: 1,
+                message: format!("[[volume]] #{}: {message}", i + 1),
+            };
+            let (model, density) = scene.volume_material(i).map_err(located)?;
+            let tets = select_tets(&volume.region, &mesh).map_err(located)?;
+            regions.push(MaterialRegion {
+                model,
+                density,
+                tets,
+            });
+        }
+        let body = ElasticBody::with_regions(mesh, model, scene.material.density, regions)
+            .map_err(|e| match e {
+                Error::Mesh { problem, .. } => Error::Mesh {
+                    path: mesh_path.clone(),
+                    problem,
+                },
+                other => other,
+            })?;
         let boundary = scene.build_boundary(&body.mesh)?;
         let initial = scene.initial_state(&body)?;
         Simulation::new(body, boundary, scene.solver_params(), initial)
     }
+}
+
+/// Lamé parameters from (E, ν) (defaults 1e5 Pa, 0.3) or (μ, λ), range-checked.
+fn lame_from(
+    e: Option<f64>,
+    nu: Option<f64>,
+    mu: Option<f64>,
+    lambda: Option<f64>,
+) -> std::result::Result<Lame, String> {
+    match (e, nu, mu, lambda) {
+        (e, nu, None, None) => {
+            let (e, nu) = (e.unwrap_or(1e5), nu.unwrap_or(0.3));
+            if !(e > 0.0 && e.is_finite()) {
+                return Err(format!("Young's modulus must be positive (Pa), got {e}"));
+            }
+            if !(nu > -1.0 && nu < 0.5) {
+                return Err(format!(
+                    "Poisson ratio must lie in (-1, 0.5), got {nu} (0.5 is incompressible: λ would be infinite)"
+                ));
+            }
+            Ok(Lame::from_young_poisson(e, nu))
+        }
+        (None, None, Some(mu), Some(lambda)) => {
+            if !(mu > 0.0 && mu.is_finite() && lambda.is_finite() && 3.0 * lambda + 2.0 * mu > 0.0)
+            {
+                return Err(format!(
+                    "need μ > 0 and 3λ + 2μ > 0 (Pa), got μ = {mu}, λ = {lambda}"
+                ));
+            }
+            Ok(Lame { mu, lambda })
+        }
+        _ => {
+            Err("give youngs_modulus and poisson_ratio, or mu and lambda (both of one pair)".into())
+        }
+    }
+}
+
+/// The tets a `[[volume]]` region selects: a named group's tets, or the tets whose centroid
+/// lies in a box or on/behind a plane.
+fn select_tets(spec: &RegionSpec, mesh: &TetMesh) -> std::result::Result<Vec<usize>, String> {
+    let centroid = |t: usize| {
+        mesh.tets[t]
+            .iter()
+            .map(|&v| mesh.positions[v])
+            .sum::<Vec3>()
+            / 4.0
+    };
+    let tets: Vec<usize> = match spec {
+        RegionSpec::Physical(name) => match mesh.group(name) {
+            Some(g) if !g.tets.is_empty() => g.tets.clone(),
+            Some(g) => {
+                return Err(format!(
+                    "group \"{name}\" holds no tets (a dimension-{} group); a material needs a volume group",
+                    g.dim
+                ));
+            }
+            None => return region(spec).select(mesh).map(|_| Vec::new()),
+        },
+        RegionSpec::Box { min, max } => (0..mesh.tets.len())
+            .filter(|&t| (0..3).all(|k| centroid(t)[k] >= min[k] && centroid(t)[k] <= max[k]))
+            .collect(),
+        RegionSpec::Plane { point, normal } => {
+            let n = Vec3::from(*normal);
+            (0..mesh.tets.len())
+                .filter(|&t| (centroid(t) - Vec3::from(*point)).dot(&n) >= 0.0)
+                .collect()
+        }
+        RegionSpec::Vertices(_) => {
+            return Err("a material region needs tets: use physical, box or plane".into());
+        }
+    };
+    if tets.is_empty() {
+        return Err("the region selects no tets".into());
+    }
+    Ok(tets)
 }
 
 /// 1-based line and column of a byte offset.

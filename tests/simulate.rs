@@ -432,3 +432,88 @@ fn every_sample_scene_runs() {
         assert!(sim.state.x.iter().all(|p| p.iter().all(|c| c.is_finite())));
     }
 }
+
+/// Per-region materials: a bar whose halves have different stiffness, pulled by a dead traction
+/// t with ν = 0 (no lateral contraction, so each half is in exact uniaxial stress): corotated
+/// with λ = 0 gives P₁₁ = 2μ(a − 1) = E(a − 1), so each half stretches by its own t/E.
+#[test]
+fn material_regions_stretch_by_their_own_stiffness() {
+    let text = r#"
+gravity = [0.0, 0.0, 0.0]
+[mesh]
+generator = { box = { min = [0, 0, 0], max = [2, 1, 1], cells = [4, 2, 2] } }
+[material]
+model = "corotated"
+youngs_modulus = 1.0e6
+poisson_ratio = 0.0
+[[volume]]
+region = { box = { min = [1, -1, -1], max = [3, 2, 2] } }
+youngs_modulus = 4.0e6
+poisson_ratio = 0.0
+density = 3000.0
+[[fixed]]
+region = { physical = "xmin" }
+components = ["x"]
+[[fixed]]
+region = { physical = "ymin" }
+components = ["y"]
+[[fixed]]
+region = { physical = "zmin" }
+components = ["z"]
+[[load]]
+region = { physical = "xmax" }
+traction = [1.0e5, 0.0, 0.0]
+[solver]
+integrator = "quasistatic"
+frames = 4
+newton_tolerance = 1e-12
+"#;
+    let mut sim = Simulation::from_scene(&scene(text)).unwrap();
+    assert_eq!(sim.body.material_counts(), vec![48, 48]);
+    let mass: f64 = sim.body.masses().iter().sum();
+    assert!((mass - (1000.0 + 3000.0)).abs() < 1e-9, "mass {mass}");
+    run_to_end(&mut sim);
+    let t = 1e5;
+    for (x, rest) in sim.state.x.iter().zip(&sim.body.mesh.positions) {
+        let expected = if rest.x <= 1.0 {
+            rest.x * (1.0 + t / 1e6)
+        } else {
+            1.0 + t / 1e6 + (rest.x - 1.0) * (1.0 + t / 4e6)
+        };
+        assert!(
+            (x.x - expected).abs() < 1e-9,
+            "x {} vs {expected} at rest x {}",
+            x.x,
+            rest.x
+        );
+        assert!((x.y - rest.y).abs() < 1e-9 && (x.z - rest.z).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn material_region_by_gmsh_physical_volume() {
+    let text = r#"
+[mesh]
+file = "tests/fixtures/beam_v41.msh"
+[[volume]]
+region = { physical = "body" }
+model = "stable-neo-hookean"
+[[fixed]]
+region = { physical = "clamp" }
+[solver]
+frames = 1
+"#;
+    let mut sim = Simulation::from_scene(&scene(text)).unwrap();
+    let counts = sim.body.material_counts();
+    assert_eq!(counts[0], 0, "every tet is in the physical volume `body`");
+    assert!(sim.step().unwrap().converged);
+    let bad = "[mesh]\nfile = \"tests/fixtures/beam_v41.msh\"\n[[volume]]\nregion = { physical = \"clamp\" }\nmodel = \"corotated\"\n";
+    let err = Simulation::from_scene(&scene(bad))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        err.contains("test.toml:3:") && err.contains("no tets"),
+        "{err}"
+    );
+}
