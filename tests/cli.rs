@@ -323,3 +323,30 @@ fn empty_region_is_named() {
         "{err}"
     );
 }
+
+#[test]
+fn compare_tabulates_every_strategy() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tetsim(
+        dir.path(),
+        &[
+            "compare",
+            "--frames",
+            "2",
+            "--definiteness",
+            "teran,abs,none",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table = String::from_utf8_lossy(&out.stdout);
+    for name in ["teran", "abs", "none"] {
+        assert!(
+            table.lines().any(|l| l.starts_with(name)),
+            "{name} missing in\n{table}"
+        );
+    }
+    let out = tetsim(dir.path(), &["compare", "--definiteness", "sometimes"]);
+    assert!(!out.status.success() && stderr(&out).contains("sometimes"));
+    // Nothing written: compare runs in memory.
+    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+}

@@ -1,6 +1,7 @@
 //! Subcommands: argument structs and dispatch, no physics.
 
 mod bench;
+mod compare;
 pub mod mesh;
 mod render;
 mod run;
@@ -35,6 +36,8 @@ enum Command {
     Mesh(mesh::MeshCommand),
     /// Re-render a saved run (its frames.pvd and VTU frames) into preview.png and animation.gif.
     Render(render::RenderArgs),
+    /// Run a scene with several definiteness strategies and tabulate their cost.
+    Compare(compare::CompareArgs),
     /// Time the cantilever workload of issue 8 at several mesh sizes.
     Bench(bench::BenchArgs),
 }
@@ -64,6 +67,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Render(args) => render::run(args, cli.quiet),
+        Command::Compare(args) => compare::run(args, cli.quiet),
         Command::Bench(args) => bench::run(args, cli.quiet),
     }
 }
