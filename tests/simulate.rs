@@ -7,7 +7,7 @@ use std::path::Path;
 
 use tetsim::integrator::{Newton, StepKind};
 use tetsim::output::Recorder;
-use tetsim::{Definiteness, Lame, Scene, Simulation, Vec3};
+use tetsim::{Definiteness, Lame, Mat3, Material, Model, ModelKind, Scene, Simulation, Vec3};
 
 fn scene(text: &str) -> Scene {
     Scene::parse(
@@ -112,6 +112,36 @@ fn analytic_uniaxial(model: &str, lame: Lame, t: f64) -> (f64, f64) {
             (b + t / (2.0 * mu), b)
         }
         other => panic!("no analytic answer for {other}"),
+    }
+}
+
+/// Uniaxial stretches (a, b) of any model from its own stress: b solves P₂₂(diag(a, b, b)) = 0,
+/// a solves P₁₁ = t (nested bisection). The models' P are checked against hand-derived
+/// uniaxial formulas in tests/derivatives; here the mesh must reproduce the material's state.
+fn material_uniaxial(model: &Model, t: f64) -> (f64, f64) {
+    let p = |a: f64, b: f64| model.stress(&Mat3::from_diagonal(&Vec3::new(a, b, b)));
+    let lateral = |a: f64| bisect(|b| p(a, b)[(1, 1)], 0.3, 3.0);
+    let a = bisect(|a| p(a, lateral(a))[(0, 0)] - t, 0.5, 3.0);
+    (a, lateral(a))
+}
+
+#[test]
+fn uniaxial_cube_matches_every_model() {
+    let lame = Lame::from_young_poisson(1e6, 0.3);
+    for kind in ModelKind::ALL {
+        for traction in [1e5, -1e5] {
+            let mut sim =
+                Simulation::from_scene(&scene(&uniaxial_scene(kind.name(), traction))).unwrap();
+            run_to_end(&mut sim);
+            let (a, b) = material_uniaxial(&Model::new(kind, lame), traction);
+            for (p, r) in sim.state.x.iter().zip(&sim.body.mesh.positions) {
+                let expected = Vec3::new(a * r.x, b * r.y, b * r.z);
+                assert!(
+                    (p - expected).norm() < 1e-8,
+                    "{kind:?} t = {traction}: {p} vs {expected}"
+                );
+            }
+        }
     }
 }
 
