@@ -262,7 +262,7 @@ pub struct SolverSpec {
     pub cg_max_iterations: usize,
     /// "projected" (default; alias "teran") or "exact" (alias "none").
     pub definiteness: Definiteness,
-    /// "jacobi" (default), "block-jacobi" or "none".
+    /// "jacobi" (default), "block-jacobi", "amg" or "none".
     pub preconditioner: PreconditionerName,
     /// Backtracking line search. Default true.
     pub line_search: bool,
@@ -317,6 +317,8 @@ pub enum PreconditionerName {
     BlockJacobi,
     /// None.
     None,
+    /// Smoothed-aggregation algebraic multigrid on the assembled system.
+    Amg,
 }
 
 /// Scene names of the failure policies.
@@ -539,7 +541,9 @@ impl Scene {
                 PreconditionerName::BlockJacobi => PreconditionerKind::BlockJacobi,
                 PreconditionerName::Jacobi => PreconditionerKind::Jacobi,
                 PreconditionerName::None => PreconditionerKind::Identity,
+                PreconditionerName::Amg => PreconditionerKind::Amg,
             },
+            amg: crate::amg::AmgParams::default(),
             line_search: s.line_search,
             on_failure: match s.on_failure {
                 OnFailureName::Retry => OnFailure::Retry,
