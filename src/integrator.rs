@@ -278,7 +278,8 @@ impl Assembled {
         }
     }
 
-    /// Assemble and constrain A at the current linearization, then build or refresh the AMG.
+    /// Assemble and constrain A at the current linearization, then build the AMG (first call;
+    /// near-nullspace from the rest positions) or refresh it (when CG iterations grew).
     fn prepare(
         &mut self,
         body: &ElasticBody,
@@ -307,6 +308,12 @@ impl Assembled {
             assembled.duration_since(started).as_secs_f64(),
             assembled.elapsed().as_secs_f64()
         );
+    }
+
+    /// Note a CG solve's iterations (for the refresh rule).
+    fn record(&mut self, iterations: usize) {
+        self.last_iterations = iterations;
+        self.baseline_iterations.get_or_insert(iterations);
     }
 }
 
@@ -472,9 +479,7 @@ impl Newton {
         info: &mut NewtonInfo,
     ) {
         let started = Instant::now();
-        if let Precond::Amg(assembled) = &mut self.precond {
-            assembled.prepare(body, &self.lin, k_scale, m_scale, free);
-        } else if !matches!(self.precond, Precond::Identity(_)) {
+        if matches!(self.precond, Precond::Jacobi(_) | Precond::BlockJacobi(_)) {
             body.stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
             let masses = body.masses();
             self.blocks
@@ -487,7 +492,7 @@ impl Newton {
             Precond::Identity(_) => {}
             Precond::Jacobi(p) => p.set_from_blocks(&self.blocks),
             Precond::BlockJacobi(p) => p.set_from_blocks(&self.blocks),
-            Precond::Amg(_) => {}
+            Precond::Amg(assembled) => assembled.prepare(body, &self.lin, k_scale, m_scale, free),
         }
         self.dx.iter_mut().for_each(|d| *d = Vec3::zeros());
         let cg_started = Instant::now();
@@ -522,14 +527,12 @@ impl Newton {
         };
         self.timings.cg += cg_started.elapsed().as_secs_f64();
         if let Precond::Amg(assembled) = &mut self.precond {
-            let iterations = match &result {
+            assembled.record(match &result {
                 Ok(i) => i.iterations,
                 Err(
                     CgError::NotPositiveDefinite { info, .. } | CgError::NonFinite { info, .. },
                 ) => info.iterations,
-            };
-            assembled.last_iterations = iterations;
-            assembled.baseline_iterations.get_or_insert(iterations);
+            });
         }
         match result {
             Ok(cg_info) => {

@@ -43,19 +43,25 @@ const DIRECT_LIMIT: usize = 3000;
 #[derive(Clone, Debug, PartialEq)]
 pub struct AmgParams {
     /// Strength threshold θ: j is a strong neighbour of i when
-    /// `‖A_ij‖_F > θ·√(‖A_ii‖_F·‖A_jj‖_F)`. 0 keeps every mesh neighbour. Default 0.0.
+    /// `‖A_ij‖_F > θ·√(‖A_ii‖_F·‖A_jj‖_F)`. 0 keeps every mesh neighbour. Default 0.03: on the
+    /// cantilever beams (n = 6, 12, 20) PCG to 1e-6 took 8, 10, 11 iterations against 9, 13, 16
+    /// with θ = 0, at the same operator complexity (1.40–1.47); θ = 0.08 cuts the aggregates too
+    /// small (complexity 2–3, slower), so stay well below it.
     pub strength_threshold: f64,
     /// Chebyshev degree of each pre- and post-smoothing (products with A per smoothing).
-    /// Default 2.
+    /// Default 2: degree 1 took 19 iterations on the n = 12 beam against 13, degree 3 took 11 but
+    /// each cycle costs a product more: no faster.
     pub smoother_degree: usize,
     /// The Chebyshev interval is `[fraction·λ̄, λ̄]`, λ̄ the upper bound of λ(D⁻¹A): the smoother
-    /// damps that upper part of the spectrum, the coarse levels the rest. Default 0.3.
+    /// damps that upper part of the spectrum, the coarse levels the rest. Default 0.1 (16 → 14
+    /// iterations at n = 20 against 0.3; 0.03 is no better).
     pub smoother_lower_fraction: f64,
     /// ω·λ̄ of the prolongator smoother `(I − ω·D⁻¹A)`. Default 4/3 (the classical choice,
     /// minimising the energy of the smoothed basis functions' high modes).
     pub prolongator_damping: f64,
     /// Stop coarsening at or below this many DOFs; that level is solved by dense Cholesky.
-    /// Default 600.
+    /// Default 600: 200 or 1500 changed neither iterations nor cost measurably on the beams
+    /// (their coarsest levels have 100–450 DOFs).
     pub max_coarse_dofs: usize,
     /// At most this many levels. Default 10.
     pub max_levels: usize,
@@ -66,9 +72,9 @@ pub struct AmgParams {
 impl Default for AmgParams {
     fn default() -> Self {
         AmgParams {
-            strength_threshold: 0.0,
+            strength_threshold: 0.03,
             smoother_degree: 2,
-            smoother_lower_fraction: 0.3,
+            smoother_lower_fraction: 0.1,
             prolongator_damping: 4.0 / 3.0,
             max_coarse_dofs: 600,
             max_levels: 10,
