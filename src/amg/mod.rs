@@ -318,11 +318,7 @@ impl<const B: usize> Level<B> {
                 .then(|| tentative(&aggregates, nullspace))
         };
         let Some((tentative, nullspace_c, kept)) = transfer else {
-            level.coarse = if dofs <= DIRECT_LIMIT.max(params.max_coarse_dofs) {
-                Coarse::Direct(Direct::new(&level.a))
-            } else {
-                Coarse::Smooth
-            };
+            level.coarse = coarsest(&level.a, params);
             return (level, None);
         };
         let nc = tentative.ncols;
@@ -418,14 +414,12 @@ impl<const B: usize> Level<B> {
     fn refresh(&mut self, params: &AmgParams, rest: &mut [Level<6>]) {
         self.update_smoother(params);
         let mut coarse = std::mem::replace(&mut self.coarse, Coarse::Smooth);
-        match &mut coarse {
-            Coarse::Direct(direct) => *direct = Direct::new(&self.a),
-            Coarse::Smooth => {}
-            Coarse::Transfer(t) => {
-                let (next, below) = rest.split_first_mut().expect("a level below");
-                self.galerkin(t, &mut next.a, params);
-                next.refresh(params, below);
-            }
+        if let Coarse::Transfer(t) = &mut coarse {
+            let (next, below) = rest.split_first_mut().expect("a level below");
+            self.galerkin(t, &mut next.a, params);
+            next.refresh(params, below);
+        } else {
+            coarse = coarsest(&self.a, params);
         }
         self.coarse = coarse;
     }
@@ -459,7 +453,7 @@ impl<const B: usize> Level<B> {
     }
 
     fn is_direct(&self) -> bool {
-        matches!(&self.coarse, Coarse::Direct(d) if d.is_factored())
+        matches!(&self.coarse, Coarse::Direct(_))
     }
 
     fn describe(&self) -> LevelInfo {
@@ -470,6 +464,17 @@ impl<const B: usize> Level<B> {
             spectral_bound: self.bounds.1,
         }
     }
+}
+
+/// The coarsest level's solver: dense Cholesky when small enough and it factors, else smoothing.
+fn coarsest<const B: usize>(a: &Bsr<B, B>, params: &AmgParams) -> Coarse<B> {
+    if B * a.rows() <= DIRECT_LIMIT.max(params.max_coarse_dofs) {
+        let direct = Direct::new(a);
+        if direct.is_factored() {
+            return Coarse::Direct(direct);
+        }
+    }
+    Coarse::Smooth
 }
 
 /// A fixed pseudo-random number in [0.5, 1.5) for entry i (a hash, so start vectors do not

@@ -224,8 +224,7 @@ impl Direct {
         }
     }
 
-    /// `x = A⁻¹·b` (x = b scaled to zero if the factorisation failed: the cycle then leaves this
-    /// level to the smoothers above).
+    /// `x = A⁻¹·b` (x = 0 if the factorisation failed; callers check [`Direct::is_factored`]).
     pub fn solve<const B: usize>(&mut self, b: &[Vector<B>], x: &mut [Vector<B>]) {
         let Some(factor) = &self.factor else {
             x.iter_mut().for_each(|v| *v = Vector::zeros());
