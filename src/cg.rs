@@ -31,8 +31,9 @@ pub trait LinearOperator {
 
 /// An approximation of A⁻¹, applied as `z = M⁻¹·r`.
 pub trait Preconditioner {
-    /// `z = M⁻¹·r`.
-    fn apply(&self, r: &[Vec3], z: &mut [Vec3]);
+    /// `z = M⁻¹·r`. Takes `&mut self`, like [`LinearOperator::apply`], so that preconditioners
+    /// may keep their work vectors inside (multigrid) and allocate nothing per application.
+    fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]);
 }
 
 /// CG stopping rules.
@@ -139,7 +140,7 @@ pub fn project(v: &mut [Vec3], free: &[Vec3]) {
 /// given (its fixed components are kept as they are, normally zero). See the module docs.
 pub fn conjugate_gradient(
     a: &mut dyn LinearOperator,
-    m: &dyn Preconditioner,
+    m: &mut dyn Preconditioner,
     b: &[Vec3],
     x: &mut [Vec3],
     free: &[Vec3],
@@ -249,7 +250,7 @@ fn masked_norm2(b: &[Vec3], free: &[Vec3], partials: &mut [f64]) -> f64 {
 pub struct Identity;
 
 impl Preconditioner for Identity {
-    fn apply(&self, r: &[Vec3], z: &mut [Vec3]) {
+    fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]) {
         z.copy_from_slice(r);
     }
 }
@@ -274,7 +275,7 @@ impl Jacobi {
 }
 
 impl Preconditioner for Jacobi {
-    fn apply(&self, r: &[Vec3], z: &mut [Vec3]) {
+    fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]) {
         z.par_iter_mut()
             .zip(r.par_iter().zip(self.inverse_diagonal.par_iter()))
             .with_min_len(CHUNK)
@@ -311,7 +312,7 @@ impl BlockJacobi {
 }
 
 impl Preconditioner for BlockJacobi {
-    fn apply(&self, r: &[Vec3], z: &mut [Vec3]) {
+    fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]) {
         z.par_iter_mut()
             .zip(r.par_iter().zip(self.inverse_blocks.par_iter()))
             .with_min_len(CHUNK)
@@ -363,7 +364,7 @@ mod tests {
             max_iterations: 500,
         };
         let info =
-            conjugate_gradient(&mut a, &Identity, &b, &mut x, &free, &params, &mut ws).unwrap();
+            conjugate_gradient(&mut a, &mut Identity, &b, &mut x, &free, &params, &mut ws).unwrap();
         assert!(info.converged);
         assert_eq!(x[0].x, 0.0);
         let mut ax = vec![Vec3::zeros(); n];
@@ -393,7 +394,7 @@ mod tests {
         let mut ws = CgWorkspace::new(2);
         let err = conjugate_gradient(
             &mut Negative,
-            &Identity,
+            &mut Identity,
             &b,
             &mut x,
             &free,
@@ -420,7 +421,7 @@ mod tests {
         };
         let info = conjugate_gradient(
             &mut Tridiagonal(n),
-            &Identity,
+            &mut Identity,
             &b,
             &mut x,
             &free,

@@ -32,6 +32,7 @@
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.
 //! - [`cg`]: preconditioned conjugate gradient on any linear operator.
+//! - [`amg`]: smoothed-aggregation algebraic multigrid, a preconditioner for the assembled system.
 //! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
@@ -45,6 +46,7 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod amg;
 pub mod bench;
 pub mod boundary;
 pub mod cg;

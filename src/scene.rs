@@ -292,7 +292,7 @@ pub struct SolverSpec {
     pub cg_max_iterations: usize,
     /// "teran" (default; alias "projected"), "analytic", "abs" or "none" (alias "exact").
     pub definiteness: Definiteness,
-    /// "jacobi" (default), "block-jacobi" or "none".
+    /// "jacobi" (default), "block-jacobi", "amg" or "none".
     pub preconditioner: PreconditionerName,
     /// Backtracking line search. Default true.
     pub line_search: bool,
@@ -350,6 +350,8 @@ pub enum PreconditionerName {
     BlockJacobi,
     /// None.
     None,
+    /// Smoothed-aggregation algebraic multigrid on the assembled system.
+    Amg,
 }
 
 /// Scene names of the failure policies.
@@ -635,7 +637,9 @@ impl Scene {
                 PreconditionerName::BlockJacobi => PreconditionerKind::BlockJacobi,
                 PreconditionerName::Jacobi => PreconditionerKind::Jacobi,
                 PreconditionerName::None => PreconditionerKind::Identity,
+                PreconditionerName::Amg => PreconditionerKind::Amg,
             },
+            amg: crate::amg::AmgParams::default(),
             line_search: s.line_search,
             inexact_newton: s.inexact_newton,
             on_failure: match s.on_failure {

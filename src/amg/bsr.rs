@@ -1,0 +1,344 @@
+//! Block compressed sparse rows with R×C blocks of compile-time size: the operators of the AMG
+//! hierarchy (A with 3×3 or 6×6 blocks, P with 3×6 or 6×6, Pᵀ), their products, and the
+//! deterministic vector kernels the cycle uses.
+//!
+//! Every kernel is parallel over rows and computes each output row on its own in a fixed order,
+//! so the bits do not depend on the thread count; the only reductions (dot products) sum fixed
+//! chunks in order.
+
+use nalgebra::{SMatrix, SVector};
+use rayon::prelude::*;
+
+/// Rows per parallel task. Results never depend on it (rows are independent); it only sets the
+/// grain of the work split.
+pub(crate) const ROW_CHUNK: usize = 512;
+
+/// Vector entries per chunk of a dot product: fixed, so sums are the same for any thread count.
+const DOT_CHUNK: usize = 2048;
+
+/// A block vector entry.
+pub(crate) type Vector<const B: usize> = SVector<f64, B>;
+/// A block.
+pub(crate) type Block<const R: usize, const C: usize> = SMatrix<f64, R, C>;
+
+/// A sparse matrix of R×C blocks in compressed rows, columns sorted within a row.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Bsr<const R: usize, const C: usize> {
+    /// Row i's blocks are `row_start[i]..row_start[i + 1]`.
+    pub row_start: Vec<u32>,
+    /// Block column of each block.
+    pub cols: Vec<u32>,
+    /// The blocks.
+    pub values: Vec<Block<R, C>>,
+    /// Number of block columns.
+    pub ncols: usize,
+}
+
+impl<const R: usize, const C: usize> Bsr<R, C> {
+    /// Zero blocks on the pattern given by sorted column lists per row.
+    pub fn from_rows(rows: &[Vec<u32>], ncols: usize) -> Self {
+        let mut row_start = Vec::with_capacity(rows.len() + 1);
+        row_start.push(0u32);
+        let mut cols = Vec::with_capacity(rows.iter().map(Vec::len).sum());
+        for r in rows {
+            debug_assert!(r.windows(2).all(|w| w[0] < w[1]));
+            cols.extend_from_slice(r);
+            row_start.push(cols.len() as u32);
+        }
+        let values = vec![Block::<R, C>::zeros(); cols.len()];
+        Bsr {
+            row_start,
+            cols,
+            values,
+            ncols,
+        }
+    }
+
+    /// Number of block rows.
+    pub fn rows(&self) -> usize {
+        self.row_start.len() - 1
+    }
+
+    /// Number of stored blocks.
+    pub fn blocks(&self) -> usize {
+        self.cols.len()
+    }
+
+    /// Block range of row i.
+    #[inline]
+    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.row_start[i] as usize..self.row_start[i + 1] as usize
+    }
+
+    /// Index of block (i, j), if stored.
+    pub fn find(&self, i: usize, j: usize) -> Option<usize> {
+        let range = self.row(i);
+        self.cols[range.clone()]
+            .binary_search(&(j as u32))
+            .ok()
+            .map(|k| range.start + k)
+    }
+
+    /// `y = M·x`.
+    pub fn multiply(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
+        debug_assert_eq!(y.len(), self.rows());
+        y.par_iter_mut()
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, yi)| *yi = self.row_product(i, x));
+    }
+
+    /// `y += M·x`.
+    pub fn multiply_add(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
+        y.par_iter_mut()
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, yi)| *yi += self.row_product(i, x));
+    }
+
+    /// `r = b − M·x`.
+    pub fn residual(&self, b: &[Vector<R>], x: &[Vector<C>], r: &mut [Vector<R>]) {
+        r.par_iter_mut()
+            .zip(b.par_iter())
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, (ri, bi))| *ri = bi - self.row_product(i, x));
+    }
+
+    /// `(M·x)ᵢ`.
+    #[inline]
+    pub fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
+        let mut sum = Vector::<R>::zeros();
+        for k in self.row(i) {
+            sum += self.values[k] * x[self.cols[k] as usize];
+        }
+        sum
+    }
+
+    /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over row chunks.
+    pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Block<R, C>]) + Sync) {
+        let n = self.rows();
+        let (row_start, cols) = (&self.row_start, &self.cols);
+        let mut chunks: Vec<(usize, &mut [Block<R, C>])> =
+            Vec::with_capacity(n.div_ceil(ROW_CHUNK));
+        let mut rest: &mut [Block<R, C>] = &mut self.values;
+        for start in (0..n).step_by(ROW_CHUNK) {
+            let end = (start + ROW_CHUNK).min(n);
+            let len = (row_start[end] - row_start[start]) as usize;
+            let (head, tail) = rest.split_at_mut(len);
+            chunks.push((start, head));
+            rest = tail;
+        }
+        chunks.into_par_iter().for_each(|(start, mut values)| {
+            for i in start..(start + ROW_CHUNK).min(n) {
+                let range = row_start[i] as usize..row_start[i + 1] as usize;
+                let (row, tail) = values.split_at_mut(range.len());
+                f(i, &cols[range], row);
+                values = tail;
+            }
+        });
+    }
+
+    /// The transpose's pattern (zero blocks) and, for each of its blocks, the index of the block
+    /// of `self` it mirrors.
+    pub fn transpose_pattern(&self) -> (Bsr<C, R>, Vec<u32>) {
+        let mut counts = vec![0u32; self.ncols + 1];
+        for &j in &self.cols {
+            counts[j as usize + 1] += 1;
+        }
+        for j in 0..self.ncols {
+            counts[j + 1] += counts[j];
+        }
+        let mut fill = counts.clone();
+        let mut cols = vec![0u32; self.blocks()];
+        let mut map = vec![0u32; self.blocks()];
+        // Rows in increasing order, so every transposed row comes out sorted.
+        for i in 0..self.rows() {
+            for k in self.row(i) {
+                let j = self.cols[k] as usize;
+                let at = fill[j] as usize;
+                cols[at] = i as u32;
+                map[at] = k as u32;
+                fill[j] += 1;
+            }
+        }
+        let t = Bsr {
+            row_start: counts,
+            values: vec![Block::<C, R>::zeros(); cols.len()],
+            cols,
+            ncols: self.rows(),
+        };
+        (t, map)
+    }
+
+    /// Fill `t` (from [`Bsr::transpose_pattern`]) with the transposed blocks.
+    pub fn transpose_into(&self, t: &mut Bsr<C, R>, map: &[u32]) {
+        t.values
+            .par_iter_mut()
+            .zip(map.par_iter())
+            .with_min_len(4 * ROW_CHUNK)
+            .for_each(|(v, &k)| *v = self.values[k as usize].transpose());
+    }
+}
+
+/// The pattern of `a·b` (zero blocks).
+pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
+    a: &Bsr<R, K>,
+    b: &Bsr<K, C>,
+) -> Bsr<R, C> {
+    let mut marker = vec![u32::MAX; b.ncols];
+    let mut rows = Vec::with_capacity(a.rows());
+    for i in 0..a.rows() {
+        let mut row = Vec::new();
+        for ka in a.row(i) {
+            let k = a.cols[ka] as usize;
+            for kb in b.row(k) {
+                let j = b.cols[kb];
+                if marker[j as usize] != i as u32 {
+                    marker[j as usize] = i as u32;
+                    row.push(j);
+                }
+            }
+        }
+        row.sort_unstable();
+        rows.push(row);
+    }
+    Bsr::from_rows(&rows, b.ncols)
+}
+
+/// `out = a·b` on `out`'s pattern (from [`product_pattern`]). With `upper`, only the blocks with
+/// column ≥ row are computed (the others are left alone), for symmetric products.
+pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
+    a: &Bsr<R, K>,
+    b: &Bsr<K, C>,
+    out: &mut Bsr<R, C>,
+    upper: bool,
+) {
+    out.for_each_row_mut(|i, cols, row| {
+        let first = if upper {
+            cols.partition_point(|&j| (j as usize) < i)
+        } else {
+            0
+        };
+        row[first..].iter_mut().for_each(|v| *v = Block::zeros());
+        let cols = &cols[first..];
+        let row = &mut row[first..];
+        for ka in a.row(i) {
+            let k = a.cols[ka] as usize;
+            let block = &a.values[ka];
+            let range = b.row(k);
+            // Columns below the first wanted one are skipped without a search.
+            let bcols = &b.cols[range.clone()];
+            let skip = if upper {
+                bcols.partition_point(|&j| (j as usize) < i)
+            } else {
+                0
+            };
+            let mut at = 0;
+            for (kb, &j) in range.clone().zip(bcols).skip(skip) {
+                // Both column lists are sorted: advance instead of searching.
+                while cols[at] != j {
+                    at += 1;
+                }
+                row[at] += block * b.values[kb];
+            }
+        }
+    });
+}
+
+/// For a symmetric pattern, the pairs (lower block, its mirror upper block): block (i, j) with
+/// j < i and the index of (j, i).
+pub(crate) fn mirror_pairs<const B: usize>(m: &Bsr<B, B>) -> Vec<(u32, u32)> {
+    let mut pairs = Vec::new();
+    for i in 0..m.rows() {
+        for k in m.row(i) {
+            let j = m.cols[k] as usize;
+            if j < i {
+                pairs.push((k as u32, m.find(j, i).expect("symmetric pattern") as u32));
+            }
+        }
+    }
+    pairs
+}
+
+/// Copy the upper blocks (column > row) into the lower ones, transposed: exact symmetry. A
+/// sequential copy: it moves each lower block once, a small cost next to the products.
+pub(crate) fn mirror_lower<const B: usize>(m: &mut Bsr<B, B>, pairs: &[(u32, u32)]) {
+    for &(lower, upper) in pairs {
+        m.values[lower as usize] = m.values[upper as usize].transpose();
+    }
+}
+
+/// Deterministic parallel `Σ aᵢ·bᵢ`: fixed chunks, partial sums added in order.
+pub(crate) fn dot<const B: usize>(
+    a: &[Vector<B>],
+    b: &[Vector<B>],
+    partials: &mut Vec<f64>,
+) -> f64 {
+    let chunks = a.len().div_ceil(DOT_CHUNK);
+    partials.resize(chunks.max(1), 0.0);
+    a.par_chunks(DOT_CHUNK)
+        .zip(b.par_chunks(DOT_CHUNK))
+        .zip(partials.par_iter_mut())
+        .for_each(|((a, b), s)| *s = a.iter().zip(b).map(|(x, y)| x.dot(y)).sum());
+    partials[..chunks].iter().sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dense<const R: usize, const C: usize>(m: &Bsr<R, C>) -> nalgebra::DMatrix<f64> {
+        let mut d = nalgebra::DMatrix::zeros(R * m.rows(), C * m.ncols);
+        for i in 0..m.rows() {
+            for k in m.row(i) {
+                let j = m.cols[k] as usize;
+                d.view_mut((R * i, C * j), (R, C)).copy_from(&m.values[k]);
+            }
+        }
+        d
+    }
+
+    fn sample<const R: usize, const C: usize>(rows: usize, ncols: usize, seed: u64) -> Bsr<R, C> {
+        let mut s = seed;
+        let mut next = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 33) as usize
+        };
+        let pattern: Vec<Vec<u32>> = (0..rows)
+            .map(|_| {
+                let mut r: Vec<u32> = (0..3).map(|_| (next() % ncols) as u32).collect();
+                r.sort_unstable();
+                r.dedup();
+                r
+            })
+            .collect();
+        let mut m = Bsr::<R, C>::from_rows(&pattern, ncols);
+        for v in &mut m.values {
+            *v = Block::<R, C>::from_fn(|_, _| (next() % 1000) as f64 / 500.0 - 1.0);
+        }
+        m
+    }
+
+    #[test]
+    fn products_and_transposes_match_dense() {
+        let a = sample::<3, 6>(40, 9, 1);
+        let b = sample::<6, 6>(9, 7, 2);
+        let mut c = product_pattern(&a, &b);
+        product_into(&a, &b, &mut c, false);
+        assert!((dense(&c) - dense(&a) * dense(&b)).norm() < 1e-12);
+        let (mut t, map) = a.transpose_pattern();
+        a.transpose_into(&mut t, &map);
+        assert_eq!(dense(&t), dense(&a).transpose());
+        // Symmetric product, upper half computed and mirrored.
+        let mut s = product_pattern(&t, &a);
+        product_into(&t, &a, &mut s, true);
+        let pairs = mirror_pairs(&s);
+        mirror_lower(&mut s, &pairs);
+        let exact = dense(&a).transpose() * dense(&a);
+        assert!((dense(&s) - &exact).norm() < 1e-12 * exact.norm());
+        assert_eq!(dense(&s), dense(&s).transpose());
+    }
+}

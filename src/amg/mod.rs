@@ -1,0 +1,491 @@
+//! Smoothed-aggregation algebraic multigrid (Vaněk, Mandel and Brezina 1996) for the assembled
+//! elasticity system, used as a CG preconditioner.
+//!
+//! **Hierarchy.** From the fine matrix A (3×3 blocks, one per vertex pair, Dirichlet DOFs already
+//! decoupled by [`BlockCsr::constrain`]) and the near-nullspace N (per vertex the 3 translations
+//! and 3 infinitesimal rotations `eₖ × (x − c)/L`, zero on constrained components):
+//! - strong connections `‖A_ij‖_F > θ·√(‖A_ii‖_F·‖A_jj‖_F)`, greedy aggregation;
+//! - tentative prolongator T by a QR of N per aggregate (`N = T·N_c`), so coarse nodes carry the
+//!   6 rigid modes: coarse levels have 6×6 blocks;
+//! - smoothed prolongator `P = (I − ω·D⁻¹A)·T`, `ω = 4/(3·ρ(D⁻¹A))`, D the block diagonal;
+//! - Galerkin coarse operator `A_c = Pᵀ·A·P` (upper half computed, mirrored: exactly symmetric);
+//! - until at most `max_coarse_dofs` remain, factored by a dense Cholesky.
+//!
+//! **Cycle.** A V-cycle with Chebyshev smoothing on D⁻¹A (bounds by Lanczos), the same before
+//! and after the coarse correction, so the preconditioner is symmetric positive definite.
+//!
+//! **Reuse.** While the pattern stays (Newton iterates, frames), [`Amg::refresh`] keeps the
+//! aggregates, T and every sparsity pattern and recomputes the numbers: D⁻¹, the spectral bounds,
+//! P, Pᵀ, A·P and Pᵀ·A·P, and the coarse factor.
+//!
+//! **Determinism.** Aggregation is sequential; every parallel kernel computes rows independently
+//! and reductions sum fixed chunks in order: the same bits for any thread count. `apply`
+//! allocates nothing (every level holds its work vectors).
+
+mod aggregate;
+mod bsr;
+mod smoother;
+
+use std::time::Instant;
+
+use self::aggregate::{MODES, aggregate, strong_neighbours, tentative};
+use self::bsr::{Block, Bsr, Vector, mirror_lower, mirror_pairs, product_into, product_pattern};
+use self::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
+use crate::cg::Preconditioner;
+use crate::math::Vec3;
+use crate::sparse::BlockCsr;
+
+/// Largest coarsest level (DOFs) factored densely when coarsening stalls above
+/// `max_coarse_dofs`; beyond it the coarsest level is only smoothed.
+const DIRECT_LIMIT: usize = 3000;
+
+/// AMG settings. Defaults measured on the issue-8 cantilever beams (see each field).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AmgParams {
+    /// Strength threshold θ: j is a strong neighbour of i when
+    /// `‖A_ij‖_F > θ·√(‖A_ii‖_F·‖A_jj‖_F)`. 0 keeps every mesh neighbour. Default 0.03: on the
+    /// cantilever beams (n = 6, 12, 20) PCG to 1e-6 took 8, 10, 11 iterations against 9, 13, 16
+    /// with θ = 0, at the same operator complexity (1.40–1.47); θ = 0.08 cuts the aggregates too
+    /// small (complexity 2–3, slower), so stay well below it.
+    pub strength_threshold: f64,
+    /// Chebyshev degree of each pre- and post-smoothing (products with A per smoothing).
+    /// Default 2: degree 1 took 19 iterations on the n = 12 beam against 13, degree 3 took 11 but
+    /// each cycle costs a product more: no faster.
+    pub smoother_degree: usize,
+    /// The Chebyshev interval is `[fraction·λ̄, λ̄]`, λ̄ the upper bound of λ(D⁻¹A): the smoother
+    /// damps that upper part of the spectrum, the coarse levels the rest. Default 0.1 (16 → 14
+    /// iterations at n = 20 against 0.3; 0.03 is no better).
+    pub smoother_lower_fraction: f64,
+    /// ω·λ̄ of the prolongator smoother `(I − ω·D⁻¹A)`. Default 4/3 (the classical choice,
+    /// minimising the energy of the smoothed basis functions' high modes).
+    pub prolongator_damping: f64,
+    /// Stop coarsening at or below this many DOFs; that level is solved by dense Cholesky.
+    /// Default 600: 200 or 1500 changed neither iterations nor cost measurably on the beams
+    /// (their coarsest levels have 100–450 DOFs).
+    pub max_coarse_dofs: usize,
+    /// At most this many levels. Default 10.
+    pub max_levels: usize,
+    /// Lanczos steps for the spectral bound of each level. Default 10.
+    pub lanczos_steps: usize,
+}
+
+impl Default for AmgParams {
+    fn default() -> Self {
+        AmgParams {
+            strength_threshold: 0.03,
+            smoother_degree: 2,
+            smoother_lower_fraction: 0.1,
+            prolongator_damping: 4.0 / 3.0,
+            max_coarse_dofs: 600,
+            max_levels: 10,
+            lanczos_steps: 10,
+        }
+    }
+}
+
+/// One level of the hierarchy, as reported by [`Amg::info`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LevelInfo {
+    /// Block rows (vertices at level 0, aggregates below).
+    pub rows: usize,
+    /// DOFs per block row (3 at level 0, 6 below).
+    pub block_size: usize,
+    /// Stored scalar entries of the level's matrix.
+    pub nonzeros: usize,
+    /// The upper bound of λ(D⁻¹A) the smoother uses.
+    pub spectral_bound: f64,
+}
+
+/// What the hierarchy looks like and what it cost.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AmgInfo {
+    /// Finest first.
+    pub levels: Vec<LevelInfo>,
+    /// Σ nonzeros over levels / nonzeros of level 0.
+    pub operator_complexity: f64,
+    /// Whether the coarsest level is solved exactly (dense Cholesky) rather than smoothed.
+    pub coarsest_direct: bool,
+    /// Seconds spent in [`Amg::new`].
+    pub setup_seconds: f64,
+    /// Seconds spent in the last [`Amg::refresh`] (0 before any).
+    pub refresh_seconds: f64,
+}
+
+/// A smoothed-aggregation AMG hierarchy for one matrix pattern; a [`Preconditioner`] (one
+/// V-cycle per application).
+#[derive(Clone, Debug)]
+pub struct Amg {
+    params: AmgParams,
+    fine: Level<3>,
+    coarse: Vec<Level<6>>,
+    info: AmgInfo,
+}
+
+impl Amg {
+    /// Build the hierarchy for `a` (constrained: see the module docs) with the rigid-body modes
+    /// of the vertices at `positions` as near-nullspace; `free` is the 0/1 mask per vertex and
+    /// component (constrained components carry no mode).
+    pub fn new(a: &BlockCsr, positions: &[Vec3], free: &[Vec3], params: &AmgParams) -> Amg {
+        let started = Instant::now();
+        let n = a.rows();
+        assert!(positions.len() == n && free.len() == n);
+        let fine_a = Bsr::<3, 3> {
+            row_start: a.pattern.row_start.clone(),
+            cols: a.pattern.cols.clone(),
+            values: a.values.clone(),
+            ncols: n,
+        };
+        let nullspace = rigid_modes(positions, free);
+        let (fine, mut next) = Level::build(fine_a, &nullspace, free.to_vec(), params, 0);
+        let mut coarse: Vec<Level<6>> = Vec::new();
+        while let Some((a_c, nullspace_c, mask_c)) = next {
+            let depth = coarse.len() + 1;
+            let (level, more) = Level::build(a_c, &nullspace_c, mask_c, params, depth);
+            coarse.push(level);
+            next = more;
+        }
+        let mut amg = Amg {
+            params: params.clone(),
+            fine,
+            coarse,
+            info: AmgInfo::default(),
+        };
+        amg.info = amg.describe();
+        amg.info.setup_seconds = started.elapsed().as_secs_f64();
+        amg
+    }
+
+    /// Recompute every numeric part for new values of A on the same pattern (and the same
+    /// constrained DOFs): the aggregates, T and the patterns are kept.
+    pub fn refresh(&mut self, a: &BlockCsr) {
+        let started = Instant::now();
+        assert_eq!(a.values.len(), self.fine.a.values.len(), "same pattern");
+        self.fine.a.values.copy_from_slice(&a.values);
+        self.fine.refresh(&self.params, &mut self.coarse);
+        let setup = self.info.setup_seconds;
+        self.info = self.describe();
+        self.info.setup_seconds = setup;
+        self.info.refresh_seconds = started.elapsed().as_secs_f64();
+    }
+
+    /// Levels, sizes, operator complexity and timings.
+    pub fn info(&self) -> &AmgInfo {
+        &self.info
+    }
+
+    fn describe(&self) -> AmgInfo {
+        let mut levels = vec![self.fine.describe()];
+        levels.extend(self.coarse.iter().map(Level::describe));
+        let total: usize = levels.iter().map(|l| l.nonzeros).sum();
+        let coarsest_direct = match self.coarse.last() {
+            Some(level) => level.is_direct(),
+            None => self.fine.is_direct(),
+        };
+        AmgInfo {
+            operator_complexity: total as f64 / levels[0].nonzeros.max(1) as f64,
+            levels,
+            coarsest_direct,
+            setup_seconds: 0.0,
+            refresh_seconds: 0.0,
+        }
+    }
+}
+
+impl Preconditioner for Amg {
+    /// One V-cycle from z = 0: `z ≈ A⁻¹·r`.
+    fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]) {
+        self.fine.cycle(r, z, &mut self.coarse);
+    }
+}
+
+/// Per vertex, the 3×6 near-nullspace block: translations eₖ and rotations `eₖ × (x − c)/L`
+/// (c the centroid, L the largest half-extent, so entries are O(1)), with constrained rows zero.
+fn rigid_modes(positions: &[Vec3], free: &[Vec3]) -> Vec<Block<3, MODES>> {
+    let n = positions.len().max(1) as f64;
+    let centroid = positions.iter().fold(Vec3::zeros(), |s, p| s + p) / n;
+    let extent = positions
+        .iter()
+        .map(|p| (p - centroid).amax())
+        .fold(0.0, f64::max);
+    let scale = if extent > 0.0 { 1.0 / extent } else { 1.0 };
+    positions
+        .iter()
+        .zip(free)
+        .map(|(p, m)| {
+            let q = (p - centroid) * scale;
+            let mut b = Block::<3, MODES>::zeros();
+            for k in 0..3 {
+                b[(k, k)] = 1.0;
+            }
+            // Columns 3..6: e_x × q, e_y × q, e_z × q.
+            for k in 0..3 {
+                let rot = Vec3::ith(k, 1.0).cross(&q);
+                b.set_column(3 + k, &rot);
+            }
+            for r in 0..3 {
+                if m[r] == 0.0 {
+                    b.row_mut(r).fill(0.0);
+                }
+            }
+            b
+        })
+        .collect()
+}
+
+/// What a level hands to the next: the coarse matrix, near-nullspace and kept-DOF mask.
+type Coarsened = Option<(Bsr<6, 6>, Vec<Block<6, 6>>, Vec<Vector<6>>)>;
+
+/// How a level's coarse correction is done.
+#[derive(Clone, Debug)]
+enum Coarse<const B: usize> {
+    /// Coarsest level: dense Cholesky.
+    Direct(Direct),
+    /// Coarsest level too large to factor: one smoothing.
+    Smooth,
+    /// Restrict, recurse into the next level, prolong.
+    Transfer(Box<Transfer<B>>),
+}
+
+/// The operators between a level and the next, with their fixed patterns.
+#[derive(Clone, Debug)]
+struct Transfer<const B: usize> {
+    tentative: Bsr<B, MODES>,
+    p: Bsr<B, MODES>,
+    pt: Bsr<MODES, B>,
+    pt_map: Vec<u32>,
+    ap: Bsr<B, MODES>,
+    mirror: Vec<(u32, u32)>,
+    /// Coarse DOFs whose tentative column was dropped (decoupled with a unit diagonal).
+    dropped: Vec<(u32, u8)>,
+    bc: Vec<Vector<MODES>>,
+    xc: Vec<Vector<MODES>>,
+}
+
+#[derive(Clone, Debug)]
+struct Level<const B: usize> {
+    a: Bsr<B, B>,
+    /// 0/1 per DOF: constrained (fine) or dropped (coarse) DOFs are 0; P's rows there are zero.
+    mask: Vec<Vector<B>>,
+    dinv: Vec<Block<B, B>>,
+    bounds: (f64, f64),
+    eigen_start: Vec<Vector<B>>,
+    r: Vec<Vector<B>>,
+    d: Vec<Vector<B>>,
+    d_next: Vec<Vector<B>>,
+    partials: Vec<f64>,
+    degree: usize,
+    coarse: Coarse<B>,
+}
+
+impl<const B: usize> Level<B> {
+    /// Set up a level on `a` and decide how it is coarsened; returns the next level's data.
+    fn build(
+        a: Bsr<B, B>,
+        nullspace: &[Block<B, MODES>],
+        mask: Vec<Vector<B>>,
+        params: &AmgParams,
+        depth: usize,
+    ) -> (Self, Coarsened) {
+        let n = a.rows();
+        let mut level = Level {
+            eigen_start: vec![Vector::zeros(); n],
+            r: vec![Vector::zeros(); n],
+            d: vec![Vector::zeros(); n],
+            d_next: vec![Vector::zeros(); n],
+            dinv: Vec::new(),
+            bounds: (0.0, 1.0),
+            partials: Vec::new(),
+            degree: params.smoother_degree.max(1),
+            coarse: Coarse::Smooth,
+            mask,
+            a,
+        };
+        level.update_smoother(params);
+        let dofs = B * n;
+        let last = dofs <= params.max_coarse_dofs || depth + 1 >= params.max_levels;
+        let transfer = if last {
+            None
+        } else {
+            let strong = strong_neighbours(&level.a, params.strength_threshold);
+            let active: Vec<bool> = nullspace
+                .iter()
+                .map(|b| b.iter().any(|&x| x != 0.0))
+                .collect();
+            let aggregates = aggregate(&strong, &active);
+            let coarse_dofs = MODES * aggregates.count;
+            // Coarsening that barely reduces the problem is not worth a level.
+            (aggregates.count > 0 && 4 * coarse_dofs <= 3 * dofs)
+                .then(|| tentative(&aggregates, nullspace))
+        };
+        let Some((tentative, nullspace_c, kept)) = transfer else {
+            level.coarse = coarsest(&level.a, params);
+            return (level, None);
+        };
+        let nc = tentative.ncols;
+        let p = product_pattern(&level.a, &tentative);
+        let (pt, pt_map) = p.transpose_pattern();
+        let ap = product_pattern(&level.a, &p);
+        let a_c = product_pattern(&pt, &ap);
+        let mirror = mirror_pairs(&a_c);
+        let dropped = kept
+            .iter()
+            .enumerate()
+            .flat_map(|(g, k)| {
+                (0..MODES)
+                    .filter(|&c| !k[c])
+                    .map(move |c| (g as u32, c as u8))
+            })
+            .collect();
+        let mask_c = kept
+            .iter()
+            .map(|k| Vector::<MODES>::from_fn(|c, _| if k[c] { 1.0 } else { 0.0 }))
+            .collect();
+        let mut transfer = Transfer {
+            tentative,
+            p,
+            pt,
+            pt_map,
+            ap,
+            mirror,
+            dropped,
+            bc: vec![Vector::zeros(); nc],
+            xc: vec![Vector::zeros(); nc],
+        };
+        let mut a_c = a_c;
+        level.galerkin(&mut transfer, &mut a_c, params);
+        level.coarse = Coarse::Transfer(Box::new(transfer));
+        (level, Some((a_c, nullspace_c, mask_c)))
+    }
+
+    /// D⁻¹ and the Chebyshev interval from the current A. Lanczos starts from the same fixed
+    /// vector every time, so a refresh gives the same bits as a fresh build.
+    fn update_smoother(&mut self, params: &AmgParams) {
+        inverse_diagonal(&self.a, &mut self.dinv);
+        for (i, v) in self.eigen_start.iter_mut().enumerate() {
+            *v = Vector::<B>::from_fn(|c, _| pseudo_random(B * i + c));
+        }
+        let upper = lanczos_bound(
+            &self.a,
+            &self.dinv,
+            &mut self.eigen_start,
+            params.lanczos_steps.max(1),
+            [&mut self.r, &mut self.d, &mut self.d_next],
+            &mut self.partials,
+        );
+        self.bounds = (params.smoother_lower_fraction * upper, upper);
+    }
+
+    /// P = (I − ω·D⁻¹A)·T, Pᵀ, A·P and A_c = Pᵀ·(A·P) into `a_c` (on its pattern).
+    fn galerkin(&self, t: &mut Transfer<B>, a_c: &mut Bsr<MODES, MODES>, params: &AmgParams) {
+        let omega = params.prolongator_damping / self.bounds.1;
+        let (a, dinv, mask, tent) = (&self.a, &self.dinv, &self.mask, &t.tentative);
+        t.p.for_each_row_mut(|i, cols, row| {
+            row.iter_mut().for_each(|v| *v = Block::zeros());
+            for k in a.row(i) {
+                let j = a.cols[k] as usize;
+                for kt in tent.row(j) {
+                    let at = cols
+                        .binary_search(&tent.cols[kt])
+                        .expect("P holds the pattern of A·T");
+                    row[at] += a.values[k] * tent.values[kt];
+                }
+            }
+            let scale = Block::<B, B>::from_diagonal(&mask[i]);
+            let left = scale * (-omega * dinv[i]);
+            for v in row.iter_mut() {
+                *v = left * *v;
+            }
+            for kt in tent.row(i) {
+                let at = cols.binary_search(&tent.cols[kt]).expect("diagonal of T");
+                row[at] += scale * tent.values[kt];
+            }
+        });
+        t.p.transpose_into(&mut t.pt, &t.pt_map);
+        product_into(a, &t.p, &mut t.ap, false);
+        product_into(&t.pt, &t.ap, a_c, true);
+        mirror_lower(a_c, &t.mirror);
+        for &(g, c) in &t.dropped {
+            let k = a_c.find(g as usize, g as usize).expect("diagonal");
+            a_c.values[k][(c as usize, c as usize)] = 1.0;
+        }
+    }
+
+    /// Recompute this level's numbers (A already updated) and the levels below.
+    fn refresh(&mut self, params: &AmgParams, rest: &mut [Level<6>]) {
+        self.update_smoother(params);
+        let mut coarse = std::mem::replace(&mut self.coarse, Coarse::Smooth);
+        if let Coarse::Transfer(t) = &mut coarse {
+            let (next, below) = rest.split_first_mut().expect("a level below");
+            self.galerkin(t, &mut next.a, params);
+            next.refresh(params, below);
+        } else {
+            coarse = coarsest(&self.a, params);
+        }
+        self.coarse = coarse;
+    }
+
+    /// `x ≈ A⁻¹·b` by one V-cycle from x = 0.
+    fn cycle(&mut self, b: &[Vector<B>], x: &mut [Vector<B>], rest: &mut [Level<6>]) {
+        let Level {
+            a,
+            dinv,
+            bounds,
+            r,
+            d,
+            d_next,
+            degree,
+            coarse,
+            ..
+        } = self;
+        match coarse {
+            Coarse::Direct(direct) => direct.solve(b, x),
+            Coarse::Smooth => chebyshev(a, dinv, *bounds, *degree, b, x, true, [r, d, d_next]),
+            Coarse::Transfer(t) => {
+                chebyshev(a, dinv, *bounds, *degree, b, x, true, [r, d, d_next]);
+                a.residual(b, x, r);
+                t.pt.multiply(r, &mut t.bc);
+                let (next, below) = rest.split_first_mut().expect("a level below");
+                next.cycle(&t.bc, &mut t.xc, below);
+                t.p.multiply_add(&t.xc, x);
+                chebyshev(a, dinv, *bounds, *degree, b, x, false, [r, d, d_next]);
+            }
+        }
+    }
+
+    fn is_direct(&self) -> bool {
+        matches!(&self.coarse, Coarse::Direct(_))
+    }
+
+    fn describe(&self) -> LevelInfo {
+        LevelInfo {
+            rows: self.a.rows(),
+            block_size: B,
+            nonzeros: B * B * self.a.blocks(),
+            spectral_bound: self.bounds.1,
+        }
+    }
+}
+
+/// The coarsest level's solver: dense Cholesky when small enough and it factors, else smoothing.
+fn coarsest<const B: usize>(a: &Bsr<B, B>, params: &AmgParams) -> Coarse<B> {
+    if B * a.rows() <= DIRECT_LIMIT.max(params.max_coarse_dofs) {
+        let direct = Direct::new(a);
+        if direct.is_factored() {
+            return Coarse::Direct(direct);
+        }
+    }
+    Coarse::Smooth
+}
+
+/// A fixed pseudo-random number in [0.5, 1.5) for entry i (a hash, so start vectors do not
+/// depend on anything but the index).
+fn pseudo_random(i: usize) -> f64 {
+    let mut h = (i as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    h ^= h >> 31;
+    0.5 + (h >> 11) as f64 / (1u64 << 53) as f64
+}
+
+#[cfg(test)]
+mod tests;
