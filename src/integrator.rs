@@ -30,8 +30,8 @@ use rayon::prelude::*;
 
 use crate::amg::{Amg, AmgParams};
 use crate::cg::{
-    self, BlockJacobi, CgError, CgParams, CgWorkspace, Jacobi, LinearOperator, Preconditioner,
-    conjugate_gradient,
+    self, BlockJacobi, CgError, CgInfo, CgParams, CgWorkspace, Jacobi, LinearOperator,
+    Preconditioner, conjugate_gradient,
 };
 use crate::elastic::{AssemblyWork, ElasticBody, Linearization};
 use crate::material::Definiteness;
@@ -249,11 +249,13 @@ impl LinearOperator for AssembledMatrix<'_> {
     }
 }
 
-/// The AMG hierarchy is refreshed (numbers recomputed on the kept aggregates) when a CG solve took
-/// more than this factor times the iterations of the first solve after the last refresh. On the
-/// 41,472-tet cantilever (30 frames, 108 Newton iterations) this took 0.41 s per frame (19 CG per
-/// Newton iteration) against 0.46 s refreshing at every Newton iterate (17 CG) and 0.76 s never
-/// refreshing (36 CG): a refresh costs about two V-cycle solves' worth of CG iterations.
+/// The AMG hierarchy is refreshed (numbers recomputed on the kept aggregates) when CG needed more
+/// than this factor times the iterations per decade of residual reduction of the first solve
+/// after the last refresh. Iterations per decade, not per solve: inexact Newton asks for a
+/// loose 0.1 early in a step and a tight tolerance at its end, so raw counts say nothing about
+/// the preconditioner's quality. With fixed tolerances, refreshing on 1.5× growth took 0.41 s
+/// per frame on the 41,472-tet cantilever against 0.46 s refreshing at every Newton iterate and
+/// 0.76 s never refreshing: a refresh costs about two solves' worth of CG iterations.
 const AMG_REFRESH_GROWTH: f64 = 1.5;
 
 /// The assembled path: `A = k·K + m·M` as a block matrix (constrained), the AMG hierarchy on it,
@@ -265,9 +267,10 @@ struct Assembled {
     work: AssemblyWork,
     amg: Option<Amg>,
     params: AmgParams,
-    /// CG iterations of the first solve after the last build or refresh, and of the last solve.
-    baseline_iterations: Option<usize>,
-    last_iterations: usize,
+    /// CG iterations per decade of residual reduction: of the first solve after the last build
+    /// or refresh, and of the last solve.
+    baseline_rate: Option<f64>,
+    last_rate: f64,
 }
 
 impl Assembled {
@@ -277,8 +280,8 @@ impl Assembled {
             work: AssemblyWork::default(),
             amg: None,
             params: params.clone(),
-            baseline_iterations: None,
-            last_iterations: 0,
+            baseline_rate: None,
+            last_rate: 0.0,
         }
     }
 
@@ -296,14 +299,15 @@ impl Assembled {
         body.assemble_system(lin, k_scale, m_scale, &mut self.a, &mut self.work);
         self.a.constrain(free);
         let assembled = Instant::now();
+        // One iteration of slack per decade, so that 2 → 4 iterations does not count as growth.
         let stale = self
-            .baseline_iterations
-            .is_some_and(|b| self.last_iterations as f64 > AMG_REFRESH_GROWTH * b.max(1) as f64);
+            .baseline_rate
+            .is_some_and(|b| self.last_rate > AMG_REFRESH_GROWTH * b + 1.0);
         match &mut self.amg {
             None => self.amg = Some(Amg::new(&self.a, &body.mesh.positions, free, &self.params)),
             Some(amg) if stale => {
                 amg.refresh(&self.a);
-                self.baseline_iterations = None;
+                self.baseline_rate = None;
             }
             Some(_) => {}
         }
@@ -314,10 +318,11 @@ impl Assembled {
         );
     }
 
-    /// Note a CG solve's iterations (for the refresh rule).
-    fn record(&mut self, iterations: usize) {
-        self.last_iterations = iterations;
-        self.baseline_iterations.get_or_insert(iterations);
+    /// Note a CG solve's iterations per decade of reduction (for the refresh rule).
+    fn record(&mut self, info: &CgInfo) {
+        let decades = (-info.relative_residual.max(1e-300).log10()).max(0.25);
+        self.last_rate = info.iterations as f64 / decades;
+        self.baseline_rate.get_or_insert(self.last_rate);
     }
 }
 
@@ -538,10 +543,10 @@ impl Newton {
         self.timings.cg += cg_started.elapsed().as_secs_f64();
         if let Precond::Amg(assembled) = &mut self.precond {
             assembled.record(match &result {
-                Ok(i) => i.iterations,
+                Ok(i) => i,
                 Err(
                     CgError::NotPositiveDefinite { info, .. } | CgError::NonFinite { info, .. },
-                ) => info.iterations,
+                ) => info,
             });
         }
         match result {
