@@ -32,6 +32,7 @@
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`sparse`]: assembled block-sparse matrices; [`bench`]: the `tetsim bench` workload.
+//! - [`check`]: the derivative self-check (`tetsim check`).
 //! - [`error`]: typed, located errors.
 
 #![warn(missing_docs)]
@@ -40,6 +41,7 @@
 pub mod bench;
 pub mod boundary;
 pub mod cg;
+pub mod check;
 pub mod elastic;
 pub mod error;
 pub mod integrator;

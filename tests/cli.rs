@@ -295,3 +295,38 @@ fn empty_region_is_named() {
         "{err}"
     );
 }
+
+#[test]
+fn check_passes_on_the_default_scene_and_every_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tetsim(dir.path(), &["check", "--all-models", "--samples", "4"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    for piece in [
+        "neo-hookean",
+        "corotated",
+        "Ψ → P",
+        "f → K·u",
+        "K·u vs assembled K",
+    ] {
+        assert!(report.contains(piece), "`{piece}` not in:\n{report}");
+    }
+    assert_eq!(report.matches("PASS: all").count(), 2, "{report}");
+    assert!(!report.contains("FAIL"), "{report}");
+}
+
+#[test]
+fn check_fails_with_exit_code_one_when_held_to_an_impossible_tolerance() {
+    // The same routine with a tolerance no finite difference can meet: every FD row fails, the
+    // table says FAIL and the exit code is 1.
+    let dir = tempfile::tempdir().unwrap();
+    let out = tetsim(dir.path(), &["check", "--tolerance", "1e-30"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("FAIL"), "{report}");
+    assert!(
+        stderr(&out).contains("self-check failed"),
+        "{}",
+        stderr(&out)
+    );
+}

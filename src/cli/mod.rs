@@ -1,6 +1,7 @@
 //! Subcommands: argument structs and dispatch, no physics.
 
 mod bench;
+mod check;
 pub mod mesh;
 mod run;
 
@@ -32,6 +33,8 @@ enum Command {
     /// Check and convert meshes.
     #[command(subcommand)]
     Mesh(mesh::MeshCommand),
+    /// Check derivatives (forces, stiffness) against finite differences on a scene's material.
+    Check(check::CheckArgs),
     /// Time the cantilever workload of issue 8 at several mesh sizes.
     Bench(bench::BenchArgs),
 }
@@ -61,5 +64,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => bench::run(args, cli.quiet),
+        Command::Check(args) => check::run(args),
     }
 }
