@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::boundary::{Boundary, Constraint, Load, Motion, Region};
 use crate::elastic::ElasticBody;
@@ -23,7 +23,7 @@ pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
 /// A parsed, validated scene. Every field mirrors a TOML table or key of SPEC §10.
 ///
 /// Defaults are per field (not `Scene::default()`, which is the built-in default *scene*).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Gravitational acceleration, m/s². Default [0, −9.81, 0].
@@ -61,6 +61,17 @@ pub struct Scene {
     source: String,
 }
 
+fn serialize_model<S: serde::Serializer>(kind: &ModelKind, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(kind.name())
+}
+
+fn serialize_definiteness<S: serde::Serializer>(d: &Definiteness, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(match d {
+        Definiteness::Exact => "exact",
+        Definiteness::Projected => "projected",
+    })
+}
+
 fn default_gravity() -> [f64; 3] {
     [0.0, -9.81, 0.0]
 }
@@ -78,7 +89,7 @@ impl Default for Scene {
 }
 
 /// `[mesh]`: a file or a generator (exactly one).
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSpec {
     /// Mesh file: .msh (v2/v4), .node (+ .ele), .vtk, .vtu, .mesh; relative to the scene.
@@ -92,7 +103,7 @@ pub struct MeshSpec {
 }
 
 /// Built-in mesh generators.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 pub enum Generator {
     /// A box of `cells` cubes, each split into 6 Kuhn tets; face groups xmin … zmax.
@@ -107,10 +118,11 @@ pub enum Generator {
 }
 
 /// `[material]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MaterialSpec {
     /// Constitutive model. Default "neo-hookean".
+    #[serde(serialize_with = "serialize_model")]
     pub model: ModelKind,
     /// Young's modulus E, Pa. Default 1e5 (when neither E, ν nor μ, λ are given).
     pub youngs_modulus: Option<f64>,
@@ -139,7 +151,7 @@ impl Default for MaterialSpec {
 
 /// A region, as TOML writes it: `{ box = { min, max } }`, `{ plane = { point, normal } }`,
 /// `{ vertices = [...] }` or `{ physical = "name" }`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 pub enum RegionSpec {
     /// Axis-aligned box, inclusive.
@@ -163,7 +175,7 @@ pub enum RegionSpec {
 }
 
 /// `motion = { translate, rotate_degrees, axis, center }`, reached at full ramp.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MotionSpec {
     /// Translation, m. Default 0.
@@ -188,7 +200,7 @@ impl Default for MotionSpec {
 }
 
 /// A constrained component name.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Component {
     /// x
@@ -200,7 +212,7 @@ pub enum Component {
 }
 
 /// `[[fixed]]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FixedSpec {
     /// Which vertices.
@@ -214,7 +226,7 @@ pub struct FixedSpec {
 }
 
 /// `[[load]]`: one of traction, total_force, point_force.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoadSpec {
     /// Which vertices (and the boundary faces among them).
@@ -230,7 +242,7 @@ pub struct LoadSpec {
 }
 
 /// `[initial]`.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct InitialSpec {
     /// Initial positions: a text file of one "x y z" line per vertex (same count and order as
@@ -241,7 +253,7 @@ pub struct InitialSpec {
 }
 
 /// `[solver]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSpec {
     /// "backward-euler" (default) or "quasistatic".
@@ -265,6 +277,7 @@ pub struct SolverSpec {
     /// CG iterations per solve. Default 2000.
     pub cg_max_iterations: usize,
     /// "projected" (default; alias "teran") or "exact" (alias "none").
+    #[serde(serialize_with = "serialize_definiteness")]
     pub definiteness: Definiteness,
     /// "jacobi" (default), "block-jacobi" or "none".
     pub preconditioner: PreconditionerName,
@@ -303,7 +316,7 @@ impl Default for SolverSpec {
 }
 
 /// Scene names of the integrators.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum IntegratorName {
     /// Backward Euler.
@@ -314,7 +327,7 @@ pub enum IntegratorName {
 }
 
 /// Scene names of the preconditioners.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PreconditionerName {
     /// Jacobi.
@@ -327,7 +340,7 @@ pub enum PreconditionerName {
 }
 
 /// Scene names of the failure policies.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum OnFailureName {
     /// Retry with smaller steps, then continue.
@@ -340,13 +353,16 @@ pub enum OnFailureName {
 }
 
 /// `[output]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct OutputSpec {
     /// Output folder, relative to the working directory. Default "out".
     pub dir: PathBuf,
     /// Write a surface OBJ per frame. Default true.
     pub obj: bool,
+    /// Write 0 in steps.csv's wall_seconds column, so that every output file is byte-identical
+    /// across runs and thread counts (the times go to timings.csv either way). Default false.
+    pub deterministic: bool,
 }
 
 impl Default for OutputSpec {
@@ -354,6 +370,7 @@ impl Default for OutputSpec {
         OutputSpec {
             dir: PathBuf::from("out"),
             obj: true,
+            deterministic: false,
         }
     }
 }
@@ -500,6 +517,11 @@ impl Scene {
                 "give youngs_modulus and poisson_ratio, or mu and lambda (both of one pair)".into(),
             ),
         }
+    }
+
+    /// The scene's TOML text (the embedded text for the built-in default scene).
+    pub fn source(&self) -> &str {
+        &self.source
     }
 
     /// Resolve a scene-relative path.

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
+use tetsim::diagnose::{RunSummary, plausibility_warnings};
 use tetsim::output::Recorder;
 use tetsim::{Scene, Simulation};
 
@@ -24,6 +25,10 @@ pub struct RunArgs {
     /// Run on a mesh the mesh doctor refuses (sets [mesh] force).
     #[arg(long)]
     pub force: bool,
+    /// Byte-identical output files across runs: steps.csv's wall_seconds written as 0 (sets
+    /// [output] deterministic; the times still go to timings.csv).
+    #[arg(long)]
+    pub deterministic: bool,
 }
 
 pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
@@ -32,6 +37,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         None => Scene::default(),
     };
     scene.mesh.force |= args.force;
+    scene.output.deterministic |= args.deterministic;
     if let Some(frames) = args.frames {
         anyhow::ensure!(frames > 0, "--frames must be at least 1");
         scene.solver.frames = frames;
@@ -39,7 +45,12 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let out = args.out.clone().unwrap_or_else(|| scene.output.dir.clone());
     let started = Instant::now();
     let mut sim = Simulation::from_scene(&scene)?;
-    let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)?;
+    let warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
+    for w in &warnings {
+        log::warn!("{w}");
+    }
+    let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)?
+        .deterministic(scene.output.deterministic);
     recorder
         .write_frame(&sim, None)
         .context("writing frame 0")?;
@@ -56,18 +67,41 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     } else {
         None
     };
-    let (mut newton, mut cg, mut unconverged) = (0, 0, Vec::new());
-    let mut worst_residual: f64 = 0.0;
-    let mut min_j = f64::INFINITY;
+    let (lo, hi) = sim.body.mesh.bounding_box();
+    let body_size = (hi - lo).norm();
+    let mut summary = RunSummary::default();
+    let mut late_warnings = Vec::new();
     while !sim.is_finished() {
-        let stats = sim.step()?;
+        let stats = match sim.step() {
+            Ok(stats) => stats,
+            Err(error) => {
+                let status = format!("stopped: {error}");
+                recorder.write_manifest(&scene, &sim, &status)?;
+                if let Some(bar) = &bar {
+                    bar.finish_and_clear();
+                }
+                return Err(error.into());
+            }
+        };
         recorder.write_frame(&sim, Some(&stats))?;
-        newton += stats.newton_iterations;
-        cg += stats.cg_iterations;
-        worst_residual = worst_residual.max(stats.relative_residual);
-        min_j = min_j.min(stats.min_j);
-        if !stats.converged {
-            unconverged.push(stats.frame);
+        summary.add(&stats, sim.params.substeps);
+        if stats.frame == 1 {
+            let moved = sim
+                .state
+                .x
+                .iter()
+                .zip(sim.initial_positions())
+                .map(|(x, x0)| (x - x0).norm())
+                .fold(0.0, f64::max);
+            if moved > body_size {
+                let w = format!(
+                    "frame 1 moved a vertex {moved:.3e} m, more than the body's size \
+                     ({body_size:.3e} m): the body may be far too soft for its weight or loads, \
+                     or dt far too large"
+                );
+                log::warn!("{w}");
+                late_warnings.push(w);
+            }
         }
         let line = format!(
             "frame {}/{}: {} Newton, {} CG, residual {:.1e}, min J {:.3}{}",
@@ -98,16 +132,18 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
+    recorder.write_manifest(&scene, &sim, "complete")?;
     if !quiet {
         let wall = started.elapsed().as_secs_f64();
         eprintln!(
-            "{frames} frames in {wall:.2} s ({:.1} frames/s): {newton} Newton iterations ({:.1}/frame), {cg} CG iterations ({:.0}/Newton), worst relative residual {worst_residual:.1e}, min J {min_j:.3}",
-            frames as f64 / wall,
-            newton as f64 / frames as f64,
-            cg as f64 / newton.max(1) as f64,
+            "{summary} in {wall:.2} s ({:.1} frames/s)",
+            frames as f64 / wall
         );
-        if !unconverged.is_empty() {
-            eprintln!("frames that did not converge: {unconverged:?}");
+        for w in warnings.iter().chain(&late_warnings) {
+            eprintln!("warning: {w}");
+        }
+        for finding in summary.findings(&sim.body, &sim.state.x, &sim.params) {
+            eprintln!("note: {finding}");
         }
         eprintln!(
             "wrote {} files to {}",
