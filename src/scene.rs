@@ -223,6 +223,9 @@ pub struct FixedSpec {
     pub motion: Option<MotionSpec>,
     /// Ramp duration, s (backward Euler). Default: the whole run.
     pub duration: Option<f64>,
+    /// Release time, s (quasistatic: load factor): after it the vertices are free. Default:
+    /// never released.
+    pub until: Option<f64>,
 }
 
 /// `[[load]]`: one of traction, total_force, point_force.
@@ -453,6 +456,28 @@ impl Scene {
             }
             _ => {}
         }
+        for (i, fixed) in self.fixed.iter().enumerate() {
+            let bad = |v: Option<f64>| v.is_some_and(|v| !(v >= 0.0 && v.is_finite()));
+            if bad(fixed.until) || bad(fixed.duration) {
+                return Err(Error::Scene {
+                    path: self.path.clone(),
+                    line: nth_table_line(text, "fixed", i).unwrap_or(1),
+                    column: 1,
+                    message: format!(
+                        "[[fixed]] #{}: duration and until must be zero or positive (s)",
+                        i + 1
+                    ),
+                });
+            }
+        }
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err(Error::Scene {
+                path: self.path.clone(),
+                line: 1,
+                column: 1,
+                message: "gravity must be finite (m/s²)".into(),
+            });
+        }
         for (i, load) in self.load.iter().enumerate() {
             let given = [
                 load.traction.is_some(),
@@ -631,6 +656,7 @@ impl Scene {
                 components,
                 motion,
                 duration: fixed.duration,
+                until: fixed.until,
             });
         }
         for (i, spec) in self.load.iter().enumerate() {

@@ -260,6 +260,9 @@ impl Simulation {
                     (Clock::LoadFactor(s), false, 0.0, s)
                 }
             };
+            if self.boundary.has_releases() {
+                self.boundary.fill_free_mask(Some(&clock), &mut self.free);
+            }
             self.xn.copy_from_slice(&self.state.x);
             self.vn.copy_from_slice(&self.state.v);
             if kind_is_dynamic {
