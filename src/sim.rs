@@ -211,16 +211,23 @@ impl Simulation {
                 attempt += 1;
                 continue;
             }
+            let inverted = if finite {
+                crate::diagnose::describe_inverted(&self.body, &self.state.x)
+                    .map(|d| format!("; {d}"))
+                    .unwrap_or_default()
+            } else {
+                String::new()
+            };
             if self.params.on_failure == OnFailure::Stop || !finite {
                 self.state.clone_from(&self.saved);
                 self.ledger.clone_from(&self.saved_ledger);
                 return Err(Error::Solve {
                     frame,
-                    message: format!("{reason}. {}", ADVICE),
+                    message: format!("{reason}{inverted}. {ADVICE}"),
                 });
             }
             log::warn!(
-                "frame {frame} did not converge ({reason}); continuing with its best iterate"
+                "frame {frame} did not converge ({reason}{inverted}); continuing with its best iterate"
             );
             break stats;
         };
