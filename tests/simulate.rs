@@ -784,3 +784,48 @@ fn energy_audit_closes_and_flags_injection() {
     assert_eq!(record(&v).injected(), 0.0);
     assert!(record(&boosted).injected() > 0.0, "{:?}", record(&boosted));
 }
+
+#[test]
+fn squashed_block_springs_back_after_the_plate_withdraws() {
+    // scenes/squash_release.toml: the plate drives the block to a tenth of its height (tets
+    // invert under it), withdraws at 0.7 s, and the block returns to its rest shape.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/squash_release.toml");
+    let mut sim = Simulation::from_scene(&Scene::load(&path).unwrap()).unwrap();
+    let mut most_inverted = 0;
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        most_inverted = most_inverted.max(stats.inverted_elements);
+        assert_eq!(stats.energy.injected(), 0.0, "frame {}", stats.frame);
+    }
+    assert!(
+        most_inverted > 0,
+        "the plate should crush some tets inside out"
+    );
+    let edge = sim.body.mesh.mean_edge_length();
+    let gap = sim
+        .state
+        .x
+        .iter()
+        .zip(&sim.body.mesh.positions)
+        .map(|(x, r)| (x - r).norm())
+        .fold(0.0, f64::max);
+    assert!(gap < RECOVERED * edge, "{:.3} edges from rest", gap / edge);
+}
+
+#[test]
+fn a_body_too_soft_for_its_weight_is_warned_about() {
+    let soft = stiff_beam_scene("dt = 1.0", -9.81, 1e3);
+    let sim = Simulation::from_scene(&scene(&soft)).unwrap();
+    let warnings = tetsim::diagnose::plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("collapses under its own weight")),
+        "{warnings:?}"
+    );
+    let firm = Simulation::from_scene(&scene(&stiff_beam_scene("", -9.81, 1e6))).unwrap();
+    assert!(
+        tetsim::diagnose::plausibility_warnings(&firm.body, &firm.boundary, &firm.params)
+            .is_empty()
+    );
+}
