@@ -141,6 +141,16 @@ pub struct Constraint {
     pub motion: Motion,
     /// Ramp duration in seconds (backward Euler); None: the whole run.
     pub duration: Option<f64>,
+    /// Release: after this time (s; quasistatic: load factor) the vertices are free again, with
+    /// the velocity they had. None: held for the whole run.
+    pub until: Option<f64>,
+}
+
+impl Constraint {
+    /// Whether the constraint holds at `clock` (it is released strictly after `until`).
+    pub fn active(&self, clock: &Clock) -> bool {
+        self.until.is_none_or(|until| clock.position() <= until)
+    }
 }
 
 /// A dead load: nodal forces at full value, ramped.
@@ -258,6 +268,14 @@ impl Clock {
         }
     }
 
+    /// Seconds since the start (backward Euler) or the load factor (quasistatic).
+    pub fn position(&self) -> f64 {
+        match *self {
+            Clock::Time { time, .. } => time,
+            Clock::LoadFactor(s) => s,
+        }
+    }
+
     /// Scale of gravity: 1 in backward Euler, the load factor in quasistatic mode.
     pub fn gravity_scale(&self) -> f64 {
         match *self {
@@ -279,10 +297,26 @@ pub struct Boundary {
 }
 
 impl Boundary {
-    /// 1 for free, 0 for constrained, per vertex and component.
+    /// 1 for free, 0 for constrained, per vertex and component (every constraint, released or
+    /// not).
     pub fn free_mask(&self, vertex_count: usize) -> Vec<Vec3> {
         let mut free = vec![Vec3::repeat(1.0); vertex_count];
+        self.fill_free_mask(None, &mut free);
+        free
+    }
+
+    /// Whether some constraint is released during the run (the free mask changes).
+    pub fn has_releases(&self) -> bool {
+        self.constraints.iter().any(|c| c.until.is_some())
+    }
+
+    /// The free mask at `clock`: constraints released by then count as free.
+    pub fn fill_free_mask(&self, clock: Option<&Clock>, free: &mut [Vec3]) {
+        free.iter_mut().for_each(|f| *f = Vec3::repeat(1.0));
         for c in &self.constraints {
+            if clock.is_some_and(|clock| !c.active(clock)) {
+                continue;
+            }
             for &v in &c.vertices {
                 for (k, &constrained) in c.components.iter().enumerate() {
                     if constrained {
@@ -291,7 +325,6 @@ impl Boundary {
                 }
             }
         }
-        free
     }
 
     /// Number of constrained components.
@@ -305,7 +338,7 @@ impl Boundary {
     /// Set the constrained components of `x` to their prescribed values at `clock`, moving the
     /// initial positions `x0`.
     pub fn prescribe(&self, clock: &Clock, x0: &[Vec3], x: &mut [Vec3]) {
-        for c in &self.constraints {
+        for c in self.constraints.iter().filter(|c| c.active(clock)) {
             let s = clock.ramp(c.duration);
             for &v in &c.vertices {
                 let target = c.motion.apply(s, &x0[v]);

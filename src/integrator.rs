@@ -398,6 +398,24 @@ impl Newton {
         &self.lin
     }
 
+    /// The elastic forces f_el at the last evaluated iterate (the step's result after
+    /// [`Newton::solve`]), N.
+    pub fn elastic_forces(&self) -> &[Vec3] {
+        &self.f_el
+    }
+
+    /// K·v at the last evaluated iterate of a dynamic step with γ > 0 (the damping force is
+    /// −γ·K·v); stale otherwise.
+    pub fn stiffness_velocity(&self) -> &[Vec3] {
+        &self.kv
+    }
+
+    /// The right-hand side at the last evaluated iterate, zero on constrained components: what
+    /// is left of the step's equation, N.
+    pub fn residual(&self) -> &[Vec3] {
+        &self.rhs
+    }
+
     /// Solve one step. On entry `x` holds the initial guess with its constrained components at
     /// their prescribed values; on exit `x` (and `v`, for dynamic steps) hold the result.
     /// `f_ext` are the external forces at the end of the step, `free` the 0/1 DOF mask.
@@ -815,6 +833,8 @@ pub struct StepStats {
     pub clamped_tets: usize,
     /// Why the frame did not converge, in words.
     pub failure: Option<String>,
+    /// The frame's energy audit (see [`crate::audit`]).
+    pub energy: crate::audit::EnergyAudit,
     /// Time by phase over the frame (not written to steps.csv: it is not deterministic).
     pub timings: Timings,
 }

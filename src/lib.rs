@@ -34,11 +34,15 @@
 //! - [`cg`]: preconditioned conjugate gradient on any linear operator.
 //! - [`amg`]: smoothed-aggregation algebraic multigrid, a preconditioner for the assembled system.
 //! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
+//! - [`audit`]: the energy audit of every step (steps.csv, run summary).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
+//! - [`manifest`]: `manifest.json`: version, input hashes, resolved parameters, output hashes.
 //! - [`sparse`]: assembled block-sparse matrices; [`bench`]: the `tetsim bench` workload.
+//! - [`check`]: the derivative self-check (`tetsim check`).
+//! - [`diagnose`]: what went wrong, in words: inverted elements, run summary, warnings.
 //! - [`error`]: typed, located errors.
 //! - [`render`]: headless pictures: software renderer → PNG and GIF, plots of `steps.csv`.
 //! - [`progress`]: the run display: progress bar and end-of-run summary.
@@ -47,13 +51,17 @@
 #![forbid(unsafe_code)]
 
 pub mod amg;
+pub mod audit;
 pub mod bench;
 pub mod boundary;
 pub mod cg;
+pub mod check;
+pub mod diagnose;
 pub mod elastic;
 pub mod error;
 pub mod integrator;
 pub mod io;
+pub mod manifest;
 pub mod material;
 pub mod math;
 pub mod mesh;

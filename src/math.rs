@@ -116,11 +116,34 @@ pub fn svd_rv(f: &Mat3) -> Svd {
     for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {
         givens_rows(&mut b, &mut ut, col, p, r);
     }
-    Svd {
-        u: ut.transpose(),
-        sigma: Vec3::new(b[(0, 0)], b[(1, 1)], b[(2, 2)]),
-        v,
+    let sigma = Vec3::new(b[(0, 0)], b[(1, 1)], b[(2, 2)]);
+    let mut u = ut.transpose();
+    align_null_pair(&mut u, &v, &sigma);
+    Svd { u, sigma, v }
+}
+
+/// When σ₂ = σ₃ = 0 (F of rank one or zero), U's last two columns can turn by any angle without
+/// changing F, and the choice decides which way the tet's collapsed cross-section reopens. Pick
+/// the angle that brings the rotation U·Vᵀ closest to the identity (largest trace), so every tet
+/// of a body squeezed onto a line reopens the same, untwisted way instead of by an arbitrary angle
+/// of the eigensolver's.
+fn align_null_pair(u: &mut Mat3, v: &Mat3, sigma: &Vec3) {
+    let tiny = 1e-12 * sigma[0].abs().max(f64::MIN_POSITIVE);
+    if sigma[1].abs() > tiny || sigma[2].abs() > tiny {
+        return;
     }
+    // N = vᵀu on the null pair; tr(G·N) is largest at (cos, sin) ∝ (N₁₁ + N₂₂, N₁₂ − N₂₁).
+    let n = |i: usize, j: usize| v.column(i).dot(&u.column(j));
+    let (c, s) = (n(1, 1) + n(2, 2), n(1, 2) - n(2, 1));
+    let h = (c * c + s * s).sqrt();
+    if h == 0.0 {
+        return;
+    }
+    let (c, s) = (c / h, s / h);
+    let (u1, u2) = (u.column(1).into_owned(), u.column(2).into_owned());
+    // u ← u·G with G = [[c, −s], [s, c]].
+    u.set_column(1, &(c * u1 + s * u2));
+    u.set_column(2, &(-s * u1 + c * u2));
 }
 
 /// Rotate rows p and r of `b` (and of `ut`) so that `b[(r, col)]` becomes zero and

@@ -15,15 +15,34 @@ use crate::sim::Simulation;
 
 /// The steps.csv header. The first eleven columns are the SPEC §10 contract; columns after them
 /// are extensions (new ones are only ever appended).
-pub const STEPS_HEADER: &str = "frame,time,newton_iterations,cg_iterations,residual,converged,elastic_energy,kinetic_energy,min_J,inverted_elements,wall_seconds,relative_residual,substeps,line_search_cuts,cg_breakdowns,cg_capped,clamped_tets";
+pub const STEPS_HEADER: &str = "frame,time,newton_iterations,cg_iterations,residual,converged,elastic_energy,kinetic_energy,min_J,inverted_elements,wall_seconds,relative_residual,substeps,line_search_cuts,cg_breakdowns,cg_capped,clamped_tets,gravitational_energy,load_work,boundary_work,damping_dissipation,numerical_dissipation,energy_tolerance";
+
+/// The header of timings.csv: wall-clock seconds per frame, split by phase (never deterministic,
+/// never hashed in the manifest).
+pub const TIMINGS_HEADER: &str =
+    "frame,wall_seconds,evaluate_seconds,preconditioner_seconds,cg_seconds";
+
+/// One frame's output files with their SHA-256, for the manifest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameFiles {
+    /// Frame number.
+    pub frame: usize,
+    /// Time (s; quasistatic: the load factor).
+    pub time: f64,
+    /// (file name, SHA-256) of the frame's VTU and OBJ.
+    pub files: Vec<(String, String)>,
+}
 
 /// Writes a run's files as it goes.
 pub struct Recorder {
     dir: PathBuf,
     write_obj: bool,
+    deterministic: bool,
     surface: Vec<[usize; 3]>,
     pvd: Vec<(f64, String)>,
     csv: String,
+    timings: String,
+    frames: Vec<FrameFiles>,
     written: Vec<PathBuf>,
 }
 
@@ -35,10 +54,25 @@ impl Recorder {
             dir: dir.to_path_buf(),
             write_obj,
             surface: body.mesh.boundary_faces(),
+            deterministic: false,
             pvd: Vec::new(),
             csv: format!("{STEPS_HEADER}\n"),
+            timings: format!("{TIMINGS_HEADER}\n"),
+            frames: Vec::new(),
             written: Vec::new(),
         })
+    }
+
+    /// Write 0 in steps.csv's wall_seconds column (the times still go to timings.csv), so that
+    /// every file the manifest lists is byte-identical across runs. See [`crate::manifest`].
+    pub fn deterministic(mut self, on: bool) -> Self {
+        self.deterministic = on;
+        self
+    }
+
+    /// The files of every frame written so far, with their SHA-256.
+    pub fn frame_files(&self) -> &[FrameFiles] {
+        &self.frames
     }
 
     /// The output folder.
@@ -85,12 +119,20 @@ impl Recorder {
                 ("von_mises", Field::Scalar(&von_mises)),
             ],
         )?;
+        let mut files = vec![(name.clone(), crate::manifest::sha256_file(&path)?)];
         self.note(path);
         if self.write_obj {
-            let path = self.dir.join(format!("surface_{frame:04}.obj"));
+            let obj = format!("surface_{frame:04}.obj");
+            let path = self.dir.join(&obj);
             write_obj(&path, x, &self.surface)?;
+            files.push((obj, crate::manifest::sha256_file(&path)?));
             self.note(path);
         }
+        self.frames.push(FrameFiles {
+            frame,
+            time: sim.state.t,
+            files,
+        });
         self.pvd.push((sim.state.t, name));
         let path = self.dir.join("frames.pvd");
         write_pvd(&path, &self.pvd)?;
@@ -105,13 +147,84 @@ impl Recorder {
                 kinetic_energy: sim.kinetic_energy(),
                 min_j: j.iter().copied().fold(f64::INFINITY, f64::min),
                 inverted_elements: j.iter().filter(|&&j| j <= 0.0).count(),
+                energy: crate::audit::EnergyAudit {
+                    gravitational: sim.gravitational_energy(),
+                    ..Default::default()
+                },
                 ..Default::default()
             },
         };
-        push_row(&mut self.csv, &row);
+        let mut csv_row = row.clone();
+        if self.deterministic {
+            csv_row.wall_seconds = 0.0;
+        }
+        push_row(&mut self.csv, &csv_row);
         let path = self.dir.join("steps.csv");
         let csv = &self.csv;
         atomic_write(&path, |w| w.write_all(csv.as_bytes()))?;
+        self.note(path);
+        let t = &row.timings;
+        let _ = writeln!(
+            self.timings,
+            "{frame},{},{},{},{}",
+            num(row.wall_seconds),
+            num(t.evaluate),
+            num(t.preconditioner),
+            num(t.cg)
+        );
+        let path = self.dir.join("timings.csv");
+        let timings = &self.timings;
+        atomic_write(&path, |w| w.write_all(timings.as_bytes()))?;
+        self.note(path);
+        Ok(())
+    }
+
+    /// Write `manifest.json`: tetsim's version, the scene's and inputs' hashes, every resolved
+    /// parameter, the hash of every output file per frame, and `status` (e.g. "complete" or why
+    /// the run stopped). Call it after the last frame (or when the run stops early).
+    pub fn write_manifest(
+        &mut self,
+        scene: &crate::scene::Scene,
+        sim: &Simulation,
+        status: &str,
+    ) -> Result<()> {
+        use crate::manifest::{DETERMINISM_NOTE, input_hashes, resolved_parameters, sha256_file};
+        let frames: Vec<serde_json::Value> = self
+            .frames
+            .iter()
+            .map(|f| {
+                let files: serde_json::Map<String, serde_json::Value> = f
+                    .files
+                    .iter()
+                    .map(|(name, hash)| (name.clone(), hash.clone().into()))
+                    .collect();
+                serde_json::json!({ "frame": f.frame, "time": f.time, "files": files })
+            })
+            .collect();
+        let mut collected = serde_json::Map::new();
+        for name in ["frames.pvd", "steps.csv"] {
+            let path = self.dir.join(name);
+            if path.exists() {
+                collected.insert(name.into(), sha256_file(&path)?.into());
+            }
+        }
+        let manifest = serde_json::json!({
+            "tetsim_version": env!("CARGO_PKG_VERSION"),
+            "status": status,
+            "deterministic": self.deterministic,
+            "determinism": DETERMINISM_NOTE,
+            "scene": {
+                "path": scene.path.display().to_string(),
+                "sha256": crate::manifest::sha256_hex(scene.source().as_bytes()),
+            },
+            "inputs": input_hashes(scene)?,
+            "parameters": resolved_parameters(scene, sim)?,
+            "outputs": { "files": collected, "frames": frames },
+        });
+        let text = serde_json::to_string_pretty(&manifest)
+            .map_err(|e| Error::parameter("manifest", e.to_string()))?;
+        let path = self.dir.join("manifest.json");
+        atomic_write(&path, |w| writeln!(w, "{text}"))?;
         self.note(path);
         Ok(())
     }
@@ -127,7 +240,7 @@ impl Recorder {
 fn push_row(csv: &mut String, s: &StepStats) {
     let _ = writeln!(
         csv,
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
         s.frame,
         num(s.time),
         s.newton_iterations,
@@ -145,13 +258,22 @@ fn push_row(csv: &mut String, s: &StepStats) {
         s.cg_breakdowns,
         s.cg_capped,
         s.clamped_tets,
+        num(s.energy.gravitational),
+        num(s.energy.load_work),
+        num(s.energy.boundary_work),
+        num(s.energy.damping_dissipation),
+        num(s.energy.numerical_dissipation),
+        num(s.energy.tolerance),
     );
 }
 
 /// A number for CSV: plain for ordinary magnitudes, exponent form otherwise, always
 /// round-trip exact.
 fn num(x: f64) -> String {
-    if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
+    if x == 0.0 {
+        // −0 too: the sign of a zero is noise.
+        "0".into()
+    } else if (1e-4..1e15).contains(&x.abs()) {
         format!("{x}")
     } else {
         format!("{x:e}")

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::boundary::{Boundary, Constraint, Load, Motion, Region};
 use crate::elastic::{ElasticBody, MaterialRegion};
@@ -23,7 +23,7 @@ pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
 /// A parsed, validated scene. Every field mirrors a TOML table or key of SPEC §10.
 ///
 /// Defaults are per field (not `Scene::default()`, which is the built-in default *scene*).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Gravitational acceleration, m/s². Default [0, −9.81, 0].
@@ -81,7 +81,7 @@ impl Default for Scene {
 }
 
 /// `[mesh]`: a file or a generator (exactly one).
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSpec {
     /// Mesh file: .msh (v2/v4), .node (+ .ele), .vtk, .vtu, .mesh; relative to the scene.
@@ -95,7 +95,7 @@ pub struct MeshSpec {
 }
 
 /// Built-in mesh generators.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 pub enum Generator {
     /// A box of `cells` cubes, each split into 6 Kuhn tets; face groups xmin … zmax.
@@ -110,7 +110,7 @@ pub enum Generator {
 }
 
 /// `[material]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MaterialSpec {
     /// Constitutive model: "neo-hookean" (default), "corotated", "stable-neo-hookean",
@@ -143,7 +143,7 @@ impl Default for MaterialSpec {
 
 /// `[[volume]]`: a material and density for part of the mesh. Keys left out take the value of
 /// `[material]`; E, ν and μ, λ follow the same rules as there.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct VolumeSpec {
     /// Which tets: `{ physical = "name" }` (the tets of a Gmsh physical volume), or a `box` /
@@ -165,7 +165,7 @@ pub struct VolumeSpec {
 
 /// A region, as TOML writes it: `{ box = { min, max } }`, `{ plane = { point, normal } }`,
 /// `{ vertices = [...] }` or `{ physical = "name" }`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 pub enum RegionSpec {
     /// Axis-aligned box, inclusive.
@@ -189,7 +189,7 @@ pub enum RegionSpec {
 }
 
 /// `motion = { translate, rotate_degrees, axis, center }`, reached at full ramp.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MotionSpec {
     /// Translation, m. Default 0.
@@ -214,7 +214,7 @@ impl Default for MotionSpec {
 }
 
 /// A constrained component name.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Component {
     /// x
@@ -226,7 +226,7 @@ pub enum Component {
 }
 
 /// `[[fixed]]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FixedSpec {
     /// Which vertices.
@@ -237,10 +237,13 @@ pub struct FixedSpec {
     pub motion: Option<MotionSpec>,
     /// Ramp duration, s (backward Euler). Default: the whole run.
     pub duration: Option<f64>,
+    /// Release time, s (quasistatic: load factor): after it the vertices are free. Default:
+    /// never released.
+    pub until: Option<f64>,
 }
 
 /// `[[load]]`: one of traction, total_force, point_force.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoadSpec {
     /// Which vertices (and the boundary faces among them).
@@ -256,7 +259,7 @@ pub struct LoadSpec {
 }
 
 /// `[initial]`.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct InitialSpec {
     /// Initial positions: a text file of one "x y z" line per vertex (same count and order as
@@ -267,7 +270,7 @@ pub struct InitialSpec {
 }
 
 /// `[solver]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSpec {
     /// "backward-euler" (default) or "quasistatic".
@@ -329,7 +332,7 @@ impl Default for SolverSpec {
 }
 
 /// Scene names of the integrators.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum IntegratorName {
     /// Backward Euler.
@@ -340,7 +343,7 @@ pub enum IntegratorName {
 }
 
 /// Scene names of the preconditioners.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PreconditionerName {
     /// Jacobi.
@@ -355,7 +358,7 @@ pub enum PreconditionerName {
 }
 
 /// Scene names of the failure policies.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum OnFailureName {
     /// Retry with smaller steps, then continue.
@@ -368,7 +371,7 @@ pub enum OnFailureName {
 }
 
 /// `[output]`.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct OutputSpec {
     /// Output folder, relative to the working directory. Default "out".
@@ -396,6 +399,9 @@ pub struct OutputSpec {
     pub azimuth: f64,
     /// Camera elevation above the horizon, degrees. Default 22.
     pub elevation: f64,
+    /// Write 0 in steps.csv's wall_seconds column, so that every output file is byte-identical
+    /// across runs and thread counts (the times go to timings.csv either way). Default false.
+    pub deterministic: bool,
 }
 
 impl Default for OutputSpec {
@@ -413,6 +419,7 @@ impl Default for OutputSpec {
             gif_stride: 1,
             azimuth: -35.0,
             elevation: 22.0,
+            deterministic: false,
         }
     }
 }
@@ -495,6 +502,28 @@ impl Scene {
             }
             _ => {}
         }
+        for (i, fixed) in self.fixed.iter().enumerate() {
+            let bad = |v: Option<f64>| v.is_some_and(|v| !(v >= 0.0 && v.is_finite()));
+            if bad(fixed.until) || bad(fixed.duration) {
+                return Err(Error::Scene {
+                    path: self.path.clone(),
+                    line: nth_table_line(text, "fixed", i).unwrap_or(1),
+                    column: 1,
+                    message: format!(
+                        "[[fixed]] #{}: duration and until must be zero or positive (s)",
+                        i + 1
+                    ),
+                });
+            }
+        }
+        if !self.gravity.iter().all(|g| g.is_finite()) {
+            return Err(Error::Scene {
+                path: self.path.clone(),
+                line: 1,
+                column: 1,
+                message: "gravity must be finite (m/s²)".into(),
+            });
+        }
         for (i, load) in self.load.iter().enumerate() {
             let given = [
                 load.traction.is_some(),
@@ -574,6 +603,11 @@ impl Scene {
             return Err(format!("density must be positive (kg/m³), got {density}"));
         }
         Ok((Model::new(v.model.unwrap_or(m.model), lame), density))
+    }
+
+    /// The scene's TOML text (the embedded text for the built-in default scene).
+    pub fn source(&self) -> &str {
+        &self.source
     }
 
     /// Resolve a scene-relative path.
@@ -685,6 +719,7 @@ impl Scene {
                 components,
                 motion,
                 duration: fixed.duration,
+                until: fixed.until,
             });
         }
         for (i, spec) in self.load.iter().enumerate() {

@@ -15,6 +15,7 @@
 
 use std::time::Instant;
 
+use crate::audit::{Ledger, StepRecord, audit_step};
 use crate::boundary::{Boundary, Clock};
 use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
@@ -50,6 +51,11 @@ pub struct Simulation {
     vn: Vec<Vec3>,
     saved: State,
     newton: Newton,
+    ledger: Ledger,
+    saved_ledger: Ledger,
+    /// The positions the ledger was made for: `state` is public, and a caller that moves it
+    /// between frames must not show up as energy created by the step.
+    ledger_x: Vec<Vec3>,
 }
 
 impl Simulation {
@@ -95,7 +101,11 @@ impl Simulation {
         if params.integrator == Integrator::Quasistatic {
             state.v.iter_mut().for_each(|v| *v = Vec3::zeros());
         }
+        let ledger = initial_ledger(&body, &boundary, &free, &state.x);
         Ok(Simulation {
+            ledger_x: state.x.clone(),
+            saved_ledger: ledger.clone(),
+            ledger,
             initial: state.x.clone(),
             frame: 0,
             f_ext: vec![Vec3::zeros(); n],
@@ -156,6 +166,16 @@ impl Simulation {
             .sum::<f64>()
     }
 
+    /// Gravitational potential −Σ m g·x of the current state, J (quasistatic: of the gravity
+    /// ramped to the current load factor).
+    pub fn gravitational_energy(&self) -> f64 {
+        let scale = match self.params.integrator {
+            Integrator::BackwardEuler => 1.0,
+            Integrator::Quasistatic => self.state.t,
+        };
+        crate::audit::gravitational_energy(&self.body, self.boundary.gravity * scale, &self.state.x)
+    }
+
     /// Advance one frame (all its substeps), retrying with smaller steps as the failure policy
     /// allows. A frame that cannot produce a finite state is an error; under `Stop`, so is one
     /// that does not converge. The state is untouched by a frame that errors.
@@ -163,6 +183,10 @@ impl Simulation {
         let frame = self.frame + 1;
         let started = Instant::now();
         self.saved.clone_from(&self.state);
+        if self.ledger_x != self.state.x {
+            self.ledger = initial_ledger(&self.body, &self.boundary, &self.free, &self.state.x);
+        }
+        self.saved_ledger.clone_from(&self.ledger);
         let mut attempt = 0;
         let mut stats = loop {
             let substeps = self.params.substeps << attempt;
@@ -183,18 +207,27 @@ impl Simulation {
                     substeps * 2
                 );
                 self.state.clone_from(&self.saved);
+                self.ledger.clone_from(&self.saved_ledger);
                 attempt += 1;
                 continue;
             }
+            let inverted = if finite {
+                crate::diagnose::describe_inverted(&self.body, &self.state.x)
+                    .map(|d| format!("; {d}"))
+                    .unwrap_or_default()
+            } else {
+                String::new()
+            };
             if self.params.on_failure == OnFailure::Stop || !finite {
                 self.state.clone_from(&self.saved);
+                self.ledger.clone_from(&self.saved_ledger);
                 return Err(Error::Solve {
                     frame,
-                    message: format!("{reason}. {}", ADVICE),
+                    message: format!("{reason}{inverted}. {ADVICE}"),
                 });
             }
             log::warn!(
-                "frame {frame} did not converge ({reason}); continuing with its best iterate"
+                "frame {frame} did not converge ({reason}{inverted}); continuing with its best iterate"
             );
             break stats;
         };
@@ -204,6 +237,7 @@ impl Simulation {
         stats.min_j = deformation.min_j;
         stats.inverted_elements = deformation.inverted;
         stats.wall_seconds = started.elapsed().as_secs_f64();
+        self.ledger_x.clone_from(&self.state.x);
         self.frame = frame;
         Ok(stats)
     }
@@ -233,6 +267,9 @@ impl Simulation {
                     (Clock::LoadFactor(s), false, 0.0, s)
                 }
             };
+            if self.boundary.has_releases() {
+                self.boundary.fill_free_mask(Some(&clock), &mut self.free);
+            }
             self.xn.copy_from_slice(&self.state.x);
             self.vn.copy_from_slice(&self.state.v);
             if kind_is_dynamic {
@@ -273,11 +310,45 @@ impl Simulation {
             if !finite {
                 return (stats, false);
             }
+            let record = StepRecord {
+                body: &self.body,
+                free: &self.free,
+                gravity: self.boundary.gravity * clock.gravity_scale(),
+                f_ext: &self.f_ext,
+                xn: &self.xn,
+                vn: &self.vn,
+                x: &self.state.x,
+                v: &self.state.v,
+                f_el: self.newton.elastic_forces(),
+                kv: self.newton.stiffness_velocity(),
+                residual: self.newton.residual(),
+                elastic: info.elastic_energy,
+                dynamic: kind_is_dynamic.then_some((h, p.rayleigh_stiffness, p.rayleigh_mass)),
+            };
+            stats.energy.add(&audit_step(&record, &mut self.ledger));
             if !info.converged && stop_early {
                 break;
             }
         }
         (stats, true)
+    }
+}
+
+/// The audit's ledger at the initial state: its elastic energy and, for the quasistatic trapezoid
+/// rule, the loads (zero at load factor 0) and reactions there.
+fn initial_ledger(body: &ElasticBody, boundary: &Boundary, free: &[Vec3], x: &[Vec3]) -> Ledger {
+    let n = body.vertex_count();
+    let mut loads = vec![Vec3::zeros(); n];
+    boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
+    let mut reactions = vec![Vec3::zeros(); n];
+    body.add_forces(x, &mut reactions);
+    for ((r, l), m) in reactions.iter_mut().zip(&loads).zip(free) {
+        *r = -(*r + l).component_mul(&(Vec3::repeat(1.0) - m));
+    }
+    Ledger {
+        elastic: body.energy(x),
+        loads,
+        reactions,
     }
 }
 

@@ -350,3 +350,173 @@ fn compare_tabulates_every_strategy() {
     // Nothing written: compare runs in memory.
     assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
 }
+
+#[test]
+fn check_passes_on_the_default_scene_and_every_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tetsim(dir.path(), &["check", "--all-models", "--samples", "4"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    for piece in [
+        "neo-hookean",
+        "corotated",
+        "Ψ → P",
+        "f → K·u",
+        "K·u vs assembled K",
+    ] {
+        assert!(report.contains(piece), "`{piece}` not in:\n{report}");
+    }
+    assert_eq!(
+        report.matches("PASS: all").count(),
+        tetsim::ModelKind::ALL.len(),
+        "{report}"
+    );
+    assert!(!report.contains("FAIL"), "{report}");
+}
+
+#[test]
+fn check_fails_with_exit_code_one_when_held_to_an_impossible_tolerance() {
+    // The same routine with a tolerance no finite difference can meet: every FD row fails, the
+    // table says FAIL and the exit code is 1.
+    let dir = tempfile::tempdir().unwrap();
+    let out = tetsim(dir.path(), &["check", "--tolerance", "1e-30"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("FAIL"), "{report}");
+    assert!(
+        stderr(&out).contains("self-check failed"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+/// Every file of an output folder, name → bytes, sorted by name.
+fn folder(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let path = e.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(&path).unwrap())
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// steps.csv with the wall_seconds column (the documented exception) blanked.
+fn without_wall_seconds(csv: &[u8]) -> String {
+    String::from_utf8_lossy(csv)
+        .lines()
+        .map(|line| {
+            let mut cells: Vec<&str> = line.split(',').collect();
+            cells[10] = "";
+            cells.join(",")
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn same_bytes_on_one_and_two_threads_and_across_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scene = scenes.join("twist.toml");
+    let scene = scene.to_str().unwrap();
+    let run = |name: &str, threads: &str, deterministic: bool| {
+        let mut args = vec![
+            "--threads",
+            threads,
+            "run",
+            scene,
+            "--frames",
+            "3",
+            "--out",
+            name,
+        ];
+        if deterministic {
+            args.push("--deterministic");
+        }
+        let out = tetsim(dir.path(), &args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        folder(&dir.path().join(name))
+    };
+    // --deterministic: every file but timings.csv is byte-identical.
+    let reference = run("a", "1", true);
+    let names: Vec<&str> = reference.iter().map(|f| f.0.as_str()).collect();
+    for piece in [
+        "frame_0003.vtu",
+        "surface_0003.obj",
+        "frames.pvd",
+        "steps.csv",
+        "manifest.json",
+    ] {
+        assert!(names.contains(&piece), "{piece} missing: {names:?}");
+    }
+    let strip = |files: Vec<(String, Vec<u8>)>| -> Vec<(String, Vec<u8>)> {
+        files.into_iter().filter(|f| f.0 != "timings.csv").collect()
+    };
+    let reference = strip(reference);
+    for (name, threads) in [("b", "2"), ("c", "1"), ("d", "2")] {
+        let other = strip(run(name, threads, true));
+        assert_eq!(reference.len(), other.len());
+        for (a, b) in reference.iter().zip(&other) {
+            assert_eq!(a.0, b.0);
+            assert!(
+                a.1 == b.1,
+                "{} differs between runs ({threads} threads)",
+                a.0
+            );
+        }
+    }
+    // Default mode: the same except steps.csv's wall_seconds (and so the manifest's hash of it).
+    let timed = run("e", "2", false);
+    for (a, b) in reference
+        .iter()
+        .zip(timed.iter().filter(|f| f.0 != "timings.csv"))
+    {
+        match a.0.as_str() {
+            "steps.csv" => assert_eq!(without_wall_seconds(&a.1), without_wall_seconds(&b.1)),
+            "manifest.json" => {}
+            _ => assert!(a.1 == b.1, "{} differs without --deterministic", a.0),
+        }
+    }
+}
+
+#[test]
+fn manifest_records_version_inputs_parameters_and_output_hashes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/squash_recover.toml");
+    let out = tetsim(
+        dir.path(),
+        &[
+            "run",
+            scene.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--out",
+            "o",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(dir.path().join("o/manifest.json")).unwrap();
+    let m: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(m["tetsim_version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(m["status"], "complete");
+    assert_eq!(m["scene"]["sha256"].as_str().unwrap().len(), 64);
+    assert_eq!(
+        m["inputs"]["initial_positions"]["path"],
+        "meshes/cube_flattened.txt"
+    );
+    assert_eq!(m["parameters"]["material"]["model"], "neo-hookean");
+    assert_eq!(m["parameters"]["solver"]["newton_tolerance"], 1e-6);
+    assert!(m["parameters"]["resolved"]["mu"].as_f64().unwrap() > 0.0);
+    let frames = m["outputs"]["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    // The hashes are the files' SHA-256.
+    let vtu = std::fs::read(dir.path().join("o/frame_0002.vtu")).unwrap();
+    assert_eq!(
+        frames[2]["files"]["frame_0002.vtu"],
+        tetsim::manifest::sha256_hex(&vtu)
+    );
+}

@@ -813,3 +813,130 @@ fn assembled_stiffness_matches_matrix_free_product() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The library self-check (`tetsim check`): passes on every model, fails loudly on wrong ones.
+
+use tetsim::check::{CheckParams, Discretization, check_body, check_material, check_simulation};
+
+#[test]
+fn self_check_passes_on_every_model() {
+    let mut rng = rng(40);
+    let mesh = small_mesh(&mut rng);
+    let start = perturbed(&mut rng, &mesh.positions, 0.2);
+    for kind in ModelKind::ALL {
+        let body = ElasticBody::new(mesh.clone(), Model::new(kind, lame()), 1000.0).unwrap();
+        let report = check_simulation(&body, &start, &CheckParams::default());
+        assert!(report.passed(), "{kind:?}:\n{report}");
+        assert!(report.rows.len() >= 15, "{report}");
+    }
+}
+
+/// A test-only material whose stress is 1 % too large: P no longer derives from Ψ.
+struct StressOnePercentHigh(Model);
+
+impl Material for StressOnePercentHigh {
+    fn energy_density(&self, f: &Mat3) -> f64 {
+        self.0.energy_density(f)
+    }
+    fn stress(&self, f: &Mat3) -> Mat3 {
+        1.01 * self.0.stress(f)
+    }
+    fn stress_differential(&self, f: &Mat3, df: &Mat3) -> Mat3 {
+        1.01 * self.0.stress_differential(f, df)
+    }
+    fn tangent(&self, f: &Mat3, d: Definiteness) -> tetsim::material::Tangent {
+        self.0.tangent(f, d)
+    }
+}
+
+/// A test-only material whose differential misses a term (the exact one of another model).
+struct WrongDifferential(Model, Model);
+
+impl Material for WrongDifferential {
+    fn energy_density(&self, f: &Mat3) -> f64 {
+        self.0.energy_density(f)
+    }
+    fn stress(&self, f: &Mat3) -> Mat3 {
+        self.0.stress(f)
+    }
+    fn stress_differential(&self, f: &Mat3, df: &Mat3) -> Mat3 {
+        self.1.stress_differential(f, df)
+    }
+    fn tangent(&self, f: &Mat3, d: Definiteness) -> tetsim::material::Tangent {
+        self.1.tangent(f, d)
+    }
+}
+
+#[test]
+fn self_check_fails_loudly_on_a_wrong_material() {
+    let model = Model::new(ModelKind::NeoHookean, lame());
+    let params = CheckParams::default();
+    let report = tetsim::check::CheckReport {
+        rows: check_material(&StressOnePercentHigh(model), &params),
+    };
+    assert!(!report.passed());
+    let psi_rows: Vec<_> = report.rows.iter().filter(|r| r.check == "Ψ → P").collect();
+    assert!(
+        psi_rows
+            .iter()
+            .all(|r| !r.passed() && r.relative_error > 1e-3),
+        "{report}"
+    );
+    let text = report.to_string();
+    assert!(text.contains("FAIL") && text.contains("Ψ → P"), "{text}");
+
+    let other = Model::new(ModelKind::Corotated, lame());
+    let rows = check_material(&WrongDifferential(model, other), &params);
+    assert!(
+        rows.iter()
+            .filter(|r| r.check == "P → dP")
+            .all(|r| !r.passed() && r.relative_error > 1e-3),
+        "{rows:?}"
+    );
+}
+
+/// A test-only body whose forces are 1 % too large.
+struct ForcesOnePercentHigh(ElasticBody);
+
+impl Discretization for ForcesOnePercentHigh {
+    fn vertex_count(&self) -> usize {
+        self.0.vertex_count()
+    }
+    fn length_scale(&self) -> f64 {
+        Discretization::length_scale(&self.0)
+    }
+    fn force_scale(&self) -> f64 {
+        Discretization::force_scale(&self.0)
+    }
+    fn energy(&self, x: &[Vec3]) -> f64 {
+        self.0.energy(x)
+    }
+    fn forces(&self, x: &[Vec3], out: &mut [Vec3]) {
+        Discretization::forces(&self.0, x, out);
+        out.iter_mut().for_each(|f| *f *= 1.01);
+    }
+    fn stiffness_product(&self, x: &[Vec3], u: &[Vec3], d: Definiteness, out: &mut [Vec3]) {
+        self.0.stiffness_product(x, u, d, out)
+    }
+    fn assembled_product(&self, x: &[Vec3], u: &[Vec3], d: Definiteness, out: &mut [Vec3]) {
+        self.0.assembled_product(x, u, d, out)
+    }
+}
+
+#[test]
+fn self_check_fails_loudly_on_wrong_forces() {
+    let mut rng = rng(41);
+    let mesh = small_mesh(&mut rng);
+    let x = perturbed(&mut rng, &mesh.positions, 0.2);
+    let body = ElasticBody::new(mesh, Model::new(ModelKind::Corotated, lame()), 1000.0).unwrap();
+    let rows = check_body(
+        &ForcesOnePercentHigh(body),
+        &[("deformed".to_string(), x)],
+        &CheckParams::default(),
+    );
+    let by_name = |name: &str| rows.iter().find(|r| r.check == name).unwrap();
+    assert!(!by_name("E → f").passed(), "{rows:?}");
+    assert!(!by_name("f → K·u").passed(), "{rows:?}");
+    assert!(by_name("K·u vs assembled K").passed(), "{rows:?}");
+}

@@ -3,11 +3,16 @@
 
 mod common;
 
+use common::{Collapse, carved_ball, rigid_distance};
+
 use std::path::Path;
 
+use tetsim::boundary::Boundary;
+use tetsim::integrator::SolverParams;
 use tetsim::integrator::{Newton, StepKind};
 use tetsim::output::Recorder;
 use tetsim::{Definiteness, Lame, Mat3, Material, Model, ModelKind, Scene, Simulation, Vec3};
+use tetsim::{ElasticBody, State, TetMesh};
 
 fn scene(text: &str) -> Scene {
     Scene::parse(
@@ -619,4 +624,412 @@ fn amg_same_bits_on_one_and_two_threads() {
         })
     };
     assert_eq!(run(1), run(2));
+}
+
+/// One hard-step run's outcome.
+#[derive(Debug)]
+struct HardStep {
+    converged_frames: usize,
+    frames: usize,
+    newton_per_frame: f64,
+    retried_frames: usize,
+}
+
+/// A cantilever of `cells` scaled by `scale` (m), ν = 0.49, under gravity, `frames` frames of
+/// `dt` s with the default failure policy (retry, then continue): every frame must come back
+/// finite, converged or flagged.
+fn hard_step(
+    kind: ModelKind,
+    youngs: f64,
+    scale: f64,
+    dt: f64,
+    cells: [usize; 3],
+    frames: usize,
+) -> HardStep {
+    let mesh =
+        tetsim::mesh::generate::box_mesh(Vec3::zeros(), scale * Vec3::new(4.0, 1.0, 1.0), cells);
+    let model = Model::new(kind, Lame::from_young_poisson(youngs, 0.49));
+    let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
+    let clamp = tetsim::boundary::Region::Plane {
+        point: Vec3::zeros(),
+        normal: -Vec3::x(),
+    }
+    .select(&body.mesh)
+    .unwrap();
+    let boundary = Boundary {
+        gravity: Vec3::new(0.0, -9.81, 0.0),
+        constraints: vec![tetsim::boundary::Constraint {
+            vertices: clamp,
+            components: [true; 3],
+            motion: Default::default(),
+            duration: None,
+            until: None,
+        }],
+        ..Default::default()
+    };
+    let params = SolverParams {
+        dt,
+        frames,
+        ..Default::default()
+    };
+    let initial = Simulation::rest_state(&body);
+    let mut sim = Simulation::new(body, boundary, params, initial).unwrap();
+    let mut out = HardStep {
+        converged_frames: 0,
+        frames,
+        newton_per_frame: 0.0,
+        retried_frames: 0,
+    };
+    while !sim.is_finished() {
+        let stats = sim
+            .step()
+            .unwrap_or_else(|e| panic!("E = {youngs:e}, scale {scale:e}, dt {dt}: {e}"));
+        assert!(
+            sim.state
+                .x
+                .iter()
+                .chain(&sim.state.v)
+                .all(|p| p.iter().all(|c| c.is_finite())),
+            "non-finite state at E = {youngs:e}, scale {scale:e}, dt {dt}"
+        );
+        assert!(
+            stats.converged || stats.failure.is_some(),
+            "an unconverged frame must say why"
+        );
+        out.converged_frames += stats.converged as usize;
+        out.retried_frames += (stats.substeps > 1) as usize;
+        out.newton_per_frame += stats.newton_iterations as f64 / frames as f64;
+    }
+    out
+}
+
+fn hard_step_matrix(cells: [usize; 3], frames: usize) {
+    for kind in ModelKind::ALL {
+        for dt in [1.0, 5.0] {
+            for youngs in [1e3, 1e6, 1e9] {
+                for scale in [1e-3, 1.0, 1e3] {
+                    let r = hard_step(kind, youngs, scale, dt, cells, frames);
+                    println!(
+                        "{:<12} dt {dt:>3} s  E {youngs:>6.0e} Pa  scale {scale:>6.0e} m: converged {}/{}, Newton/frame {:.1}, retried frames {}",
+                        kind.name(),
+                        r.converged_frames,
+                        r.frames,
+                        r.newton_per_frame,
+                        r.retried_frames
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn hard_steps_stay_finite_and_say_when_they_fail() {
+    hard_step_matrix([4, 1, 1], 2);
+}
+
+/// The bigger matrix behind the closing note:
+/// `cargo test --release --test simulate hard_step_matrix_full -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn hard_step_matrix_full() {
+    hard_step_matrix([16, 4, 4], 5);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Robustness: inversion recovery (Irving et al. 2004).
+
+/// A body is back at rest shape when no vertex is farther than this many mean edge lengths from
+/// the best rigid alignment of the rest shape: 5 % of an edge is invisible in a frame, and far
+/// above what 2 s of γ = 0.02 s damping leaves (1e-3 edges measured) yet far below a body stuck
+/// in a wrong shape (≥ 1 edge measured).
+const RECOVERED: f64 = 0.05;
+
+/// Run a free body (no gravity, nothing fixed, E = 100 kPa, γ = 0.02 s) from a collapsed start
+/// for `frames` frames at 30 fps; every frame must stay finite. Returns the distance to the rest
+/// shape after rigid alignment, in mean edge lengths.
+fn recover(
+    mesh: &TetMesh,
+    kind: ModelKind,
+    collapse: Collapse,
+    jitter: bool,
+    frames: usize,
+) -> f64 {
+    let edge = mesh.mean_edge_length();
+    let x0 = collapse.apply(&mesh.positions, if jitter { 1e-3 * edge } else { 0.0 }, 7);
+    let model = Model::new(kind, Lame::from_young_poisson(1e5, 0.3));
+    let body = ElasticBody::new(mesh.clone(), model, 1000.0).unwrap();
+    let initial = State {
+        v: vec![Vec3::zeros(); x0.len()],
+        x: x0,
+        t: 0.0,
+    };
+    let params = SolverParams {
+        frames,
+        rayleigh_stiffness: 0.02,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(body, Boundary::default(), params, initial).unwrap();
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        assert!(
+            sim.state
+                .x
+                .iter()
+                .chain(&sim.state.v)
+                .all(|p| p.iter().all(|c| c.is_finite())),
+            "{kind:?} {collapse:?}: NaN at frame {}",
+            stats.frame
+        );
+    }
+    rigid_distance(&sim.body.mesh.positions, &sim.state.x) / edge
+}
+
+fn small_beam() -> TetMesh {
+    tetsim::mesh::generate::box_mesh(Vec3::zeros(), Vec3::new(3.0, 1.0, 1.0), [6, 2, 2])
+}
+
+#[test]
+fn flattened_and_pointlike_bodies_recover() {
+    // All vertices on one plane (with and without jitter), or on one point: every tet has
+    // J = 0, and the body springs back to its rest shape up to a rigid motion. Every model with
+    // a restoring force at F = 0 and rotation invariance; stable Neo-Hookean and St. Venant-
+    // Kirchhoff have no force there (their documented limit: a tet squeezed onto a point stays a
+    // point), and small-strain linear elasticity cannot tell a rotated body from a strained one.
+    let meshes = [("beam", small_beam()), ("ball", carved_ball(1.0, 5))];
+    let kinds = [
+        ModelKind::NeoHookean,
+        ModelKind::Corotated,
+        ModelKind::MooneyRivlin,
+    ];
+    for (name, mesh) in &meshes {
+        for kind in kinds {
+            for (collapse, jitter) in [
+                (Collapse::Plane, false),
+                (Collapse::Plane, true),
+                (Collapse::Point, false),
+            ] {
+                let d = recover(mesh, kind, collapse, jitter, 60);
+                assert!(
+                    d < RECOVERED,
+                    "{name} {kind:?} {collapse:?} jitter {jitter}: {d:.3} edges from rest"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn tangled_starts_recover_with_neo_hookean_and_corotated() {
+    // On a line, on a jittered point, scrambled in a small box: tangled starts with about half
+    // the tets inverted. Both SPEC materials come back from these on the carved ball and the
+    // beam; the jittered line on the thin beam is the hard case `recovery_table` reports.
+    let ball = carved_ball(1.0, 5);
+    for kind in [ModelKind::NeoHookean, ModelKind::Corotated] {
+        for (collapse, jitter) in [
+            (Collapse::Line, false),
+            (Collapse::Point, true),
+            (Collapse::Scrambled, false),
+        ] {
+            let d = recover(&ball, kind, collapse, jitter, 150);
+            assert!(
+                d < RECOVERED,
+                "{kind:?} ball {collapse:?} jitter {jitter}: {d:.3} edges"
+            );
+        }
+        for collapse in [Collapse::Line, Collapse::Scrambled] {
+            let d = recover(&small_beam(), kind, collapse, false, 150);
+            assert!(d < RECOVERED, "{kind:?} beam {collapse:?}: {d:.3} edges");
+        }
+    }
+}
+
+/// The closing note's table: every start × material × mesh (the TetGen ball fixture included),
+/// 300 frames. Asserts no NaN anywhere and recovery where it is known to happen; prints the rest.
+/// `cargo test --release --test simulate recovery_table -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn recovery_table() {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/ball.node");
+    let tetgen_ball = tetsim::io::read_mesh(&fixture).unwrap().mesh;
+    let meshes = [
+        ("beam 6x2x2", small_beam()),
+        ("carved ball", carved_ball(1.0, 6)),
+        ("TetGen ball", tetgen_ball),
+    ];
+    println!("| mesh | material | start | jitter | distance (edges) |");
+    for (name, mesh) in &meshes {
+        for kind in ModelKind::ALL {
+            for collapse in Collapse::ALL {
+                for jitter in [false, true] {
+                    let d = recover(mesh, kind, collapse, jitter, 300);
+                    println!(
+                        "| {name} | {} | {} | {jitter} | {d:.4} |",
+                        kind.name(),
+                        collapse.name()
+                    );
+                    let restoring = matches!(
+                        kind,
+                        ModelKind::NeoHookean | ModelKind::Corotated | ModelKind::MooneyRivlin
+                    );
+                    if restoring
+                        && (matches!(collapse, Collapse::Plane)
+                            || (collapse == Collapse::Point && !jitter))
+                    {
+                        assert!(d < RECOVERED, "{name} {kind:?} {collapse:?} {jitter}: {d}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn energy_audit_closes_and_flags_injection() {
+    // A stretched free cube vibrating and spinning with no damping: no work is done on it, so
+    // the remainder is backward Euler's own dissipation, which must not be negative.
+    let mut sim = free_cube(1, 1.2);
+    while !sim.is_finished() {
+        let s = sim.step().unwrap();
+        let e = &s.energy;
+        assert_eq!(e.load_work, 0.0);
+        assert_eq!(e.boundary_work, 0.0);
+        assert!(e.injected() == 0.0, "frame {}: {e:?}", s.frame);
+        assert!(e.numerical_dissipation > 0.0, "frame {}: {e:?}", s.frame);
+    }
+    // A twisted bar: the moving end does positive work, nothing is injected, and the ledger
+    // closes: elastic + kinetic + dissipated = boundary work.
+    let mut twist =
+        Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/twist.toml")).unwrap();
+    twist.solver.frames = 10;
+    let mut sim = Simulation::from_scene(&twist).unwrap();
+    let (mut work, mut dissipated) = (0.0, 0.0);
+    let mut last = Default::default();
+    while !sim.is_finished() {
+        let s = sim.step().unwrap();
+        assert_eq!(
+            s.energy.injected(),
+            0.0,
+            "frame {}: {:?}",
+            s.frame,
+            s.energy
+        );
+        work += s.energy.boundary_work;
+        dissipated += s.energy.damping_dissipation + s.energy.numerical_dissipation;
+        last = s;
+    }
+    let stored = last.elastic_energy + last.kinetic_energy;
+    assert!(work > 0.0);
+    assert!(
+        (stored + dissipated - work).abs() < 1e-6 * work,
+        "stored {stored} + dissipated {dissipated} vs work {work}"
+    );
+    // Tampering with one step's velocities (doubled: 4× the kinetic energy, from nowhere) is flagged.
+    let mut sim = free_cube(1, 1.2);
+    let xn = sim.state.x.clone();
+    let vn = sim.state.v.clone();
+    sim.step().unwrap();
+    let mut newton = Newton::new(&sim.body, &sim.params);
+    let (mut x, mut v) = (xn.clone(), vn.clone());
+    let h = sim.params.dt;
+    for ((x, xn), vn) in x.iter_mut().zip(&xn).zip(&vn) {
+        *x = xn + h * vn;
+    }
+    let zeros = vec![Vec3::zeros(); xn.len()];
+    let kind = StepKind::Dynamic {
+        xn: &xn,
+        vn: &vn,
+        h,
+    };
+    let info = newton.solve(
+        &sim.body,
+        kind,
+        &zeros,
+        sim.free_mask(),
+        &sim.params,
+        &mut x,
+        &mut v,
+    );
+    let boosted: Vec<Vec3> = v.iter().map(|v| 2.0 * v).collect();
+    let record = |v: &[Vec3]| {
+        let mut ledger = tetsim::audit::Ledger {
+            elastic: sim.body.energy(&xn),
+            ..Default::default()
+        };
+        tetsim::audit::audit_step(
+            &tetsim::audit::StepRecord {
+                body: &sim.body,
+                free: sim.free_mask(),
+                gravity: Vec3::zeros(),
+                f_ext: &zeros,
+                xn: &xn,
+                vn: &vn,
+                x: &x,
+                v,
+                f_el: newton.elastic_forces(),
+                kv: newton.stiffness_velocity(),
+                residual: newton.residual(),
+                elastic: info.elastic_energy,
+                dynamic: Some((h, 0.0, 0.0)),
+            },
+            &mut ledger,
+        )
+    };
+    assert_eq!(record(&v).injected(), 0.0);
+    assert!(record(&boosted).injected() > 0.0, "{:?}", record(&boosted));
+}
+
+#[test]
+fn squashed_block_springs_back_after_the_plate_withdraws() {
+    // scenes/squash_release.toml: the plate drives the block to a tenth of its height (tets
+    // invert under it), withdraws at 0.7 s, and the block returns to its rest shape.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/squash_release.toml");
+    let mut sim = Simulation::from_scene(&Scene::load(&path).unwrap()).unwrap();
+    let mut most_inverted = 0;
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        most_inverted = most_inverted.max(stats.inverted_elements);
+        // Backward Euler keeps its energy inequality only where the energy is convex along the
+        // step; crushing tets inside out under a plate whose prescribed velocity stops dead
+        // (frame 15) is neither, and the audit measures a small gain there. Bound it by a
+        // percent of the work the plate does in that frame.
+        let allowed = 0.01 * stats.energy.boundary_work.abs();
+        assert!(
+            stats.energy.injected() <= allowed,
+            "frame {}: {:?}",
+            stats.frame,
+            stats.energy
+        );
+    }
+    assert!(
+        most_inverted > 0,
+        "the plate should crush some tets inside out"
+    );
+    let edge = sim.body.mesh.mean_edge_length();
+    let gap = sim
+        .state
+        .x
+        .iter()
+        .zip(&sim.body.mesh.positions)
+        .map(|(x, r)| (x - r).norm())
+        .fold(0.0, f64::max);
+    assert!(gap < RECOVERED * edge, "{:.3} edges from rest", gap / edge);
+}
+
+#[test]
+fn a_body_too_soft_for_its_weight_is_warned_about() {
+    let soft = stiff_beam_scene("dt = 1.0", -9.81, 1e3);
+    let sim = Simulation::from_scene(&scene(&soft)).unwrap();
+    let warnings = tetsim::diagnose::plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("collapses under its own weight")),
+        "{warnings:?}"
+    );
+    let firm = Simulation::from_scene(&scene(&stiff_beam_scene("", -9.81, 1e6))).unwrap();
+    assert!(
+        tetsim::diagnose::plausibility_warnings(&firm.body, &firm.boundary, &firm.params)
+            .is_empty()
+    );
 }

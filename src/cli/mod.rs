@@ -1,6 +1,7 @@
 //! Subcommands: argument structs and dispatch, no physics.
 
 mod bench;
+mod check;
 mod compare;
 pub mod mesh;
 mod render;
@@ -38,6 +39,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Run a scene with several definiteness strategies and tabulate their cost.
     Compare(compare::CompareArgs),
+    /// Check derivatives (forces, stiffness) against finite differences on a scene's material.
+    Check(check::CheckArgs),
     /// Time the cantilever workload of issue 8 at several mesh sizes.
     Bench(bench::BenchArgs),
 }
@@ -69,5 +72,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Render(args) => render::run(args, cli.quiet),
         Command::Compare(args) => compare::run(args, cli.quiet),
         Command::Bench(args) => bench::run(args, cli.quiet),
+        Command::Check(args) => check::run(args),
     }
 }

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use tetsim::diagnose::{RunSummary, plausibility_warnings};
 use tetsim::math::Vec3;
 use tetsim::output::Recorder;
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
@@ -27,6 +28,10 @@ pub struct RunArgs {
     /// Skip preview.png, animation.gif and the plots (sets [output] pictures and plots off).
     #[arg(long)]
     pub no_pictures: bool,
+    /// Byte-identical output files across runs: steps.csv's wall_seconds written as 0 (sets
+    /// [output] deterministic; the times still go to timings.csv).
+    #[arg(long)]
+    pub deterministic: bool,
 }
 
 /// Frames kept in memory for the pictures: (frame, time, positions, field values).
@@ -38,6 +43,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         None => Scene::default(),
     };
     scene.mesh.force |= args.force;
+    scene.output.deterministic |= args.deterministic;
     if let Some(frames) = args.frames {
         anyhow::ensure!(frames > 0, "--frames must be at least 1");
         scene.solver.frames = frames;
@@ -48,7 +54,12 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
     let out = args.out.clone().unwrap_or_else(|| scene.output.dir.clone());
     let mut sim = Simulation::from_scene(&scene)?;
-    let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)?;
+    let mut warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
+    for w in &warnings {
+        log::warn!("{w}");
+    }
+    let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)?
+        .deterministic(scene.output.deterministic);
     recorder
         .write_frame(&sim, None)
         .context("writing frame 0")?;
@@ -77,6 +88,9 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         },
     );
     let mut failure = None;
+    let (lo, hi) = sim.body.mesh.bounding_box();
+    let body_size = (hi - lo).norm();
+    let mut summary = RunSummary::default();
     while !sim.is_finished() {
         let stats = match sim.step() {
             Ok(stats) => stats,
@@ -87,6 +101,24 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             }
         };
         recorder.write_frame(&sim, Some(&stats))?;
+        summary.add(&stats, sim.params.substeps);
+        if stats.frame == 1 {
+            let moved = sim
+                .state
+                .x
+                .iter()
+                .zip(sim.initial_positions())
+                .map(|(x, x0)| (x - x0).norm())
+                .fold(0.0, f64::max);
+            if moved > body_size {
+                let w = format!(
+                    "frame 1 moved a vertex {moved:.3e} m, more than the body's size ({body_size:.3e} m): \
+                     the body may be far too soft for its weight or loads, or dt far too large"
+                );
+                log::warn!("{w}");
+                warnings.push(w);
+            }
+        }
         display.frame_done(&FrameReport {
             frame: stats.frame,
             time: stats.time,
@@ -115,11 +147,21 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             render::plot_steps(&out.join("steps.csv"), &out).context("plotting steps.csv")?,
         );
     }
+    let status = failure
+        .as_ref()
+        .map_or("complete".to_string(), |e| format!("stopped: {e}"));
+    recorder.write_manifest(&scene, &sim, &status)?;
     let mut files = recorder.files().to_vec();
     files.extend(pictures);
-    let summary = display.finish(&out, &files);
+    let text = display.finish(&out, &files);
     if !quiet {
-        eprintln!("{summary}");
+        eprintln!("{text}");
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        for finding in summary.findings(&sim.body, &sim.state.x, &sim.params) {
+            eprintln!("note: {finding}");
+        }
     }
     match failure {
         Some(error) => Err(error.into()),

@@ -398,3 +398,17 @@ impl<'de> serde::Deserialize<'de> for ModelKind {
         })
     }
 }
+
+/// Written as its scene name.
+impl serde::Serialize for Definiteness {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+/// Written as its scene name.
+impl serde::Serialize for ModelKind {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}

@@ -34,8 +34,8 @@ use crate::math::{Mat3, Vec3};
 /// Default share r of the shear modulus carried by the Ī₂ term: C₀₁ = rμ/2, C₁₀ = (1 − r)μ/2.
 pub const DEFAULT_C01_FRACTION: f64 = 0.25;
 
-/// Default stretch threshold of the extended ln J, as for Neo-Hookean (see
-/// [`super::neo_hookean::DEFAULT_INVERSION_THRESHOLD`]).
+/// Default stretch threshold of the per-stretch extended ln J (below it ln σ is extended
+/// quadratically; lower is stiffer).
 pub const DEFAULT_STRETCH_THRESHOLD: f64 = 0.3;
 
 /// Default volume threshold below which J^(−2/3) is extended: compression to under 30 % of the

@@ -159,3 +159,112 @@ pub fn random_field(rng: &mut ChaCha8Rng, n: usize) -> Vec<Vec3> {
 pub fn axpy(a: &[Vec3], t: f64, b: &[Vec3]) -> Vec<Vec3> {
     a.iter().zip(b).map(|(x, y)| x + t * y).collect()
 }
+
+/// A coarse ball: the tets of a box mesh of `cells`³ cubes over [−r, r]³ whose centroid lies
+/// within r, unused vertices dropped.
+pub fn carved_ball(radius: f64, cells: usize) -> TetMesh {
+    let mut mesh = box_mesh(Vec3::repeat(-radius), Vec3::repeat(radius), [cells; 3]);
+    let x = mesh.positions.clone();
+    mesh.tets.retain(|t| {
+        let c = t.iter().map(|&v| x[v]).sum::<Vec3>() / 4.0;
+        c.norm() < radius
+    });
+    mesh.groups.clear();
+    mesh.drop_unreferenced_vertices();
+    mesh.vertex_ids = None;
+    mesh
+}
+
+/// The collapsed or scrambled starts of the Irving et al. 2004 recovery demonstrations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Collapse {
+    /// Every vertex projected onto one plane through the centroid.
+    Plane,
+    /// Every vertex projected onto one line through the centroid.
+    Line,
+    /// Every vertex at the centroid.
+    Point,
+    /// Every vertex at a random place in a box a quarter of the body's size.
+    Scrambled,
+}
+
+impl Collapse {
+    /// Every start, in table order.
+    pub const ALL: [Collapse; 4] = [
+        Collapse::Plane,
+        Collapse::Line,
+        Collapse::Point,
+        Collapse::Scrambled,
+    ];
+
+    /// Short name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Collapse::Plane => "plane",
+            Collapse::Line => "line",
+            Collapse::Point => "point",
+            Collapse::Scrambled => "scrambled",
+        }
+    }
+
+    /// The collapsed positions of `rest`, plus a random jitter of `jitter` (m) per coordinate.
+    pub fn apply(self, rest: &[Vec3], jitter: f64, seed: u64) -> Vec<Vec3> {
+        let mut rng = rng(seed);
+        let c = rest.iter().sum::<Vec3>() / rest.len() as f64;
+        let (lo, hi) = tetsim::mesh::bounding_box(rest);
+        let size = (hi - lo).norm();
+        // Oblique directions, so no mesh plane or axis lines up with the collapse.
+        let d = Vec3::new(1.0, 2.0, 3.0).normalize();
+        let mut x: Vec<Vec3> = rest
+            .iter()
+            .map(|p| match self {
+                Collapse::Plane => p - d * (p - c).dot(&d),
+                Collapse::Line => c + d * (p - c).dot(&d),
+                Collapse::Point => c,
+                Collapse::Scrambled => {
+                    c + 0.125
+                        * size
+                        * Vec3::new(
+                            uniform(&mut rng, -1.0, 1.0),
+                            uniform(&mut rng, -1.0, 1.0),
+                            uniform(&mut rng, -1.0, 1.0),
+                        )
+                }
+            })
+            .collect();
+        if jitter > 0.0 {
+            for p in &mut x {
+                *p += jitter
+                    * Vec3::new(
+                        uniform(&mut rng, -1.0, 1.0),
+                        uniform(&mut rng, -1.0, 1.0),
+                        uniform(&mut rng, -1.0, 1.0),
+                    );
+            }
+        }
+        x
+    }
+}
+
+/// Largest vertex distance between `x` and `rest` after the best rigid alignment of `rest` onto
+/// `x` (Kabsch: least squares over rotations, reflections excluded, and translations).
+pub fn rigid_distance(rest: &[Vec3], x: &[Vec3]) -> f64 {
+    let n = rest.len() as f64;
+    let (cr, cx) = (rest.iter().sum::<Vec3>() / n, x.iter().sum::<Vec3>() / n);
+    let h: Mat3 = rest
+        .iter()
+        .zip(x)
+        .map(|(r, p)| (p - cx) * (r - cr).transpose())
+        .sum();
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u.unwrap(), svd.v_t.unwrap());
+    // nalgebra does not sort singular values: a reflection is undone on the smallest.
+    let smallest = svd.singular_values.imin();
+    let mut d = Mat3::identity();
+    d[(smallest, smallest)] = (u * v_t).determinant().signum();
+    let rotation = u * d * v_t;
+    rest.iter()
+        .zip(x)
+        .map(|(r, p)| (cx + rotation * (r - cr) - p).norm())
+        .fold(0.0, f64::max)
+}

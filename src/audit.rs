@@ -1,0 +1,188 @@
+//! The energy audit: where every joule of a step came from and went, so that energy injection
+//! (the earliest sign of a wrong derivative or an unstable step) is caught and said.
+//!
+//! **Backward Euler**, one step (xⁿ, vⁿ) → (xⁿ⁺¹, vⁿ⁺¹) with Δx = xⁿ⁺¹ − xⁿ = h·vⁿ⁺¹. Its equation
+//! on every degree of freedom is `M(vⁿ⁺¹ − vⁿ)/h = f_el + f_d + f_g + f_load + R − r`, with R the
+//! reaction that keeps constrained components on their prescribed path (nonzero only there) and
+//! r the Newton residual left on free ones. Dotting with Δx:
+//!
+//! ```text
+//! ΔK + ΔE + ΔV = W_load + W_bound − D_damp − D_num
+//! K = ½vᵀMv, E = Σ WΨ, V = −Σ m g·x,
+//! W_load = f_load(tⁿ⁺¹)·Δx, W_bound = R·Δx, D_damp = h·vⁿ⁺¹ᵀ(γK + αM)vⁿ⁺¹,
+//! D_num = ½‖vⁿ⁺¹ − vⁿ‖²_M + (E(xⁿ) − E(xⁿ⁺¹) − ∇E(xⁿ⁺¹)·(xⁿ − xⁿ⁺¹)) + r·Δx
+//! ```
+//!
+//! D_num, backward Euler's own numerical dissipation, is what remains: positive for a convex
+//! energy and a converged step. A remainder below −tolerance (tolerance = |r·Δx| plus rounding of
+//! the terms) means the step created energy, and is flagged.
+//!
+//! **Quasistatic** (no inertia, loads and gravity ramped): `ΔE = W_load + W_bound − D_num`, the
+//! works by the trapezoid rule over the load step (gravity counts as a load). D_num is then the
+//! quadrature error as well, of either sign; it is flagged only beyond 5 % of the works.
+
+use crate::elastic::ElasticBody;
+use crate::math::Vec3;
+
+/// Energy terms of one frame (summed over its substeps), J. The end-of-frame energies are
+/// levels; works and dissipations are what the frame added.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EnergyAudit {
+    /// Gravitational potential V = −Σ m g·x at the end of the frame (quasistatic: of the
+    /// ramped gravity, for reference; its work is in `load_work`).
+    pub gravitational: f64,
+    /// Work of the dead loads (quasistatic: and of gravity) over the frame.
+    pub load_work: f64,
+    /// Work of the prescribed motions (reactions · displacement of constrained components).
+    pub boundary_work: f64,
+    /// Energy taken by Rayleigh damping over the frame.
+    pub damping_dissipation: f64,
+    /// The remainder: backward Euler's numerical dissipation (≥ −tolerance when healthy).
+    pub numerical_dissipation: f64,
+    /// How far below zero the remainder may go before it counts as injected energy.
+    pub tolerance: f64,
+}
+
+impl EnergyAudit {
+    /// Add one substep's works, dissipations and tolerance; keep its levels.
+    pub fn add(&mut self, step: &EnergyAudit) {
+        self.gravitational = step.gravitational;
+        self.load_work += step.load_work;
+        self.boundary_work += step.boundary_work;
+        self.damping_dissipation += step.damping_dissipation;
+        self.numerical_dissipation += step.numerical_dissipation;
+        self.tolerance += step.tolerance;
+    }
+
+    /// Energy created beyond tolerance (J, 0 when none): the step gave back more than the
+    /// loads and boundaries put in.
+    pub fn injected(&self) -> f64 {
+        (-self.numerical_dissipation - self.tolerance).max(0.0)
+    }
+}
+
+/// What the audit carries from one step to the next: the elastic energy of the current state and,
+/// for the quasistatic trapezoid rule, the loads and reactions there.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Ledger {
+    /// E(x) of the current state, J.
+    pub elastic: f64,
+    /// Dead loads (and ramped gravity) at the current state, N (quasistatic).
+    pub loads: Vec<Vec3>,
+    /// Reactions at the current state, N (quasistatic).
+    pub reactions: Vec<Vec3>,
+}
+
+/// Everything one step's audit reads. Slices are per vertex.
+pub struct StepRecord<'a> {
+    /// The body (masses).
+    pub body: &'a ElasticBody,
+    /// 0/1 mask of free components.
+    pub free: &'a [Vec3],
+    /// Gravity of the step (ramped when quasistatic), m/s².
+    pub gravity: Vec3,
+    /// External forces of the step: gravity plus dead loads, N.
+    pub f_ext: &'a [Vec3],
+    /// Positions and velocities at the start of the step.
+    pub xn: &'a [Vec3],
+    /// Velocities at the start (ignored when quasistatic).
+    pub vn: &'a [Vec3],
+    /// Positions and velocities at the end.
+    pub x: &'a [Vec3],
+    /// Velocities at the end.
+    pub v: &'a [Vec3],
+    /// f_el at the end, N.
+    pub f_el: &'a [Vec3],
+    /// K·v at the end (used only when γ > 0), N/s.
+    pub kv: &'a [Vec3],
+    /// Newton's residual at the end (zero on constrained components), N.
+    pub residual: &'a [Vec3],
+    /// E at the end, J.
+    pub elastic: f64,
+    /// h (s) and the Rayleigh coefficients γ (s), α (1/s); None when quasistatic.
+    pub dynamic: Option<(f64, f64, f64)>,
+}
+
+/// Relative rounding allowance on the sum of the magnitudes of all terms.
+const ROUNDING: f64 = 1e-9;
+
+/// Quasistatic: the share of the works the trapezoid rule may miss before a remainder counts.
+const QUADRATURE: f64 = 0.05;
+
+/// The audit of one step; updates `ledger` to the end state.
+pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
+    let masses = r.body.masses();
+    let n = masses.len();
+    let (mut load_work, mut boundary_work, mut damping, mut kinetic_change) = (0.0, 0.0, 0.0, 0.0);
+    let (mut residual_work, mut gravitational) = (0.0, 0.0);
+    let mut potential_change = 0.0;
+    let quasistatic = r.dynamic.is_none();
+    if quasistatic {
+        ledger.loads.resize(n, Vec3::zeros());
+        ledger.reactions.resize(n, Vec3::zeros());
+    }
+    // Plain loops in vertex order: deterministic, and cheap next to one Newton iteration. Many
+    // parallel slices are read at the same index, so an index loop is the clear form.
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..n {
+        let (m, dx) = (masses[i], r.x[i] - r.xn[i]);
+        let fixed = Vec3::repeat(1.0) - r.free[i];
+        let gravity_force = m * r.gravity;
+        let load = r.f_ext[i] - gravity_force;
+        gravitational -= gravity_force.dot(&r.x[i]);
+        residual_work += r.residual[i].dot(&dx);
+        match r.dynamic {
+            Some((h, gamma, alpha)) => {
+                let (v, vn) = (r.v[i], r.vn[i]);
+                let reaction =
+                    (m * (v - vn) / h + alpha * m * v + gamma * r.kv[i] - r.f_el[i] - r.f_ext[i])
+                        .component_mul(&fixed);
+                load_work += load.dot(&dx);
+                boundary_work += reaction.dot(&dx);
+                damping += h * v.dot(&(gamma * r.kv[i] + alpha * m * v));
+                kinetic_change += 0.5 * m * (v.norm_squared() - vn.norm_squared());
+                potential_change -= gravity_force.dot(&dx);
+            }
+            None => {
+                let reaction = -(r.f_el[i] + r.f_ext[i]).component_mul(&fixed);
+                load_work += 0.5 * (ledger.loads[i] + r.f_ext[i]).dot(&dx);
+                boundary_work += 0.5 * (ledger.reactions[i] + reaction).dot(&dx);
+                ledger.loads[i] = r.f_ext[i];
+                ledger.reactions[i] = reaction;
+            }
+        }
+    }
+    let elastic_change = r.elastic - ledger.elastic;
+    let remainder =
+        load_work + boundary_work - damping - (kinetic_change + elastic_change + potential_change);
+    let magnitude = load_work.abs()
+        + boundary_work.abs()
+        + damping.abs()
+        + kinetic_change.abs()
+        + r.elastic.abs()
+        + ledger.elastic.abs()
+        + potential_change.abs();
+    let mut tolerance = residual_work.abs() + ROUNDING * magnitude;
+    if quasistatic {
+        tolerance += QUADRATURE * (load_work.abs() + boundary_work.abs() + elastic_change.abs());
+    }
+    ledger.elastic = r.elastic;
+    EnergyAudit {
+        gravitational,
+        load_work,
+        boundary_work,
+        damping_dissipation: damping,
+        numerical_dissipation: remainder,
+        tolerance,
+    }
+}
+
+/// V = −Σ m g·x, J.
+pub fn gravitational_energy(body: &ElasticBody, gravity: Vec3, x: &[Vec3]) -> f64 {
+    -body
+        .masses()
+        .iter()
+        .zip(x)
+        .map(|(m, x)| m * gravity.dot(x))
+        .sum::<f64>()
+}

@@ -1,0 +1,261 @@
+//! Diagnosis in words: what went wrong in a run, where, and what to try. The run summary of
+//! `tetsim run` is [`RunSummary`]; [`plausibility_warnings`] flags suspicious parameters before a
+//! run starts; [`inverted_elements`] names the inverted tets of a state.
+
+use std::fmt;
+
+use crate::boundary::Boundary;
+use crate::elastic::ElasticBody;
+use crate::integrator::{Integrator, SolverParams, StepStats};
+use crate::material::{Definiteness, Material};
+use crate::math::{Mat3, Vec3};
+
+/// How many element ids a message lists.
+pub const LISTED: usize = 8;
+
+/// The inverted tets (det F ≤ 0) of state x: their count and the ids (file ids when the mesh
+/// came from a file) of the first [`LISTED`].
+pub fn inverted_elements(body: &ElasticBody, x: &[Vec3]) -> (usize, Vec<u64>) {
+    let j = body.jacobians(x);
+    let inverted: Vec<usize> = (0..j.len()).filter(|&t| j[t] <= 0.0).collect();
+    let ids = inverted
+        .iter()
+        .take(LISTED)
+        .map(|&t| body.mesh.tet_id(t))
+        .collect();
+    (inverted.len(), ids)
+}
+
+/// "N tets are inverted (ids a, b, c, …)" or None.
+pub fn describe_inverted(body: &ElasticBody, x: &[Vec3]) -> Option<String> {
+    let (count, ids) = inverted_elements(body, x);
+    (count > 0).then(|| {
+        let list: Vec<String> = ids.iter().map(u64::to_string).collect();
+        format!(
+            "{count} of {} tets are inverted (elements {}{})",
+            body.tet_count(),
+            list.join(", "),
+            if count > ids.len() { ", …" } else { "" }
+        )
+    })
+}
+
+/// Static strain ρ·|g|·L/E above which a body is said to collapse under its own weight: its base
+/// would be compressed by more than half (L is the body's extent along gravity).
+pub const COLLAPSE_STRAIN: f64 = 0.5;
+
+/// Warnings about parameters that are legal but suspicious, in words (also logged by the CLI).
+pub fn plausibility_warnings(
+    body: &ElasticBody,
+    boundary: &Boundary,
+    params: &SolverParams,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let g = boundary.gravity.norm();
+    let mut df = Mat3::zeros();
+    df[(0, 0)] = 1.0;
+    // λ + 2μ, the stiffness of a laterally confined column: a scale for E.
+    let modulus = body
+        .model
+        .stress_differential(&Mat3::identity(), &df)
+        .norm();
+    let (lo, hi) = body.mesh.bounding_box();
+    let size = (hi - lo).norm();
+    if g > 0.0 && modulus > 0.0 {
+        let along = (hi - lo).abs().dot(&(boundary.gravity / g).abs());
+        let strain = body.density * g * along / modulus;
+        if strain > COLLAPSE_STRAIN {
+            let wave_time = along / (modulus / body.density).sqrt();
+            warnings.push(format!(
+                "the body is so soft it collapses under its own weight: ρ·g·L/E = {strain:.2} \
+                 (ρ = {} kg/m³, L = {along:.3e} m along gravity, E ≈ {modulus:.3e} Pa){}; \
+                 check the units of youngs_modulus (Pa) and of the mesh (m)",
+                body.density,
+                if params.integrator == Integrator::BackwardEuler && params.dt > wave_time {
+                    format!(
+                        ", and within one frame (dt = {} s > L/c = {wave_time:.2e} s)",
+                        params.dt
+                    )
+                } else {
+                    String::new()
+                }
+            ));
+        }
+    }
+    if params.integrator == Integrator::BackwardEuler && size > 0.0 {
+        let fall = 0.5 * g * params.dt * params.dt;
+        if fall > size {
+            warnings.push(format!(
+                "one frame of free fall ({fall:.3e} m at dt = {} s) is longer than the body \
+                 ({size:.3e} m): expect large, heavily damped steps",
+                params.dt
+            ));
+        }
+    }
+    warnings
+}
+
+/// Everything a run did, gathered frame by frame, and told in words at the end.
+#[derive(Clone, Debug, Default)]
+pub struct RunSummary {
+    /// Frames done.
+    pub frames: usize,
+    /// Newton and CG iterations over the run.
+    pub newton: usize,
+    /// CG iterations over the run.
+    pub cg: usize,
+    /// Frames that did not converge, with the first reason.
+    pub unconverged: Vec<(usize, String)>,
+    /// Frames that needed more substeps than asked (step cutting), with the substeps used.
+    pub cut: Vec<(usize, usize)>,
+    /// CG solves that hit their cap, and that broke down (pᵀAp ≤ 0).
+    pub cg_capped: usize,
+    /// CG solves that broke down.
+    pub cg_breakdowns: usize,
+    /// Line-search halvings over the run.
+    pub line_search_cuts: usize,
+    /// Most tets clamped at once, and the frame.
+    pub most_clamped: (usize, usize),
+    /// Frames whose energy audit found energy created, with the joules.
+    pub energy_injected: Vec<(usize, f64)>,
+    /// Smallest det F over the run and the frame.
+    pub min_j: (f64, usize),
+    /// Worst relative residual.
+    pub worst_residual: f64,
+}
+
+impl RunSummary {
+    /// Fold one frame in.
+    pub fn add(&mut self, s: &StepStats, asked_substeps: usize) {
+        if self.frames == 0 {
+            self.min_j = (f64::INFINITY, 0);
+        }
+        self.frames += 1;
+        self.newton += s.newton_iterations;
+        self.cg += s.cg_iterations;
+        if !s.converged {
+            let why = s.failure.clone().unwrap_or_else(|| "unknown".into());
+            self.unconverged.push((s.frame, why));
+        }
+        if s.substeps > asked_substeps {
+            self.cut.push((s.frame, s.substeps));
+        }
+        self.cg_capped += s.cg_capped;
+        self.cg_breakdowns += s.cg_breakdowns;
+        self.line_search_cuts += s.line_search_cuts;
+        if s.clamped_tets > self.most_clamped.0 {
+            self.most_clamped = (s.clamped_tets, s.frame);
+        }
+        let injected = s.energy.injected();
+        if injected > 0.0 {
+            self.energy_injected.push((s.frame, injected));
+        }
+        if s.min_j < self.min_j.0 {
+            self.min_j = (s.min_j, s.frame);
+        }
+        self.worst_residual = self.worst_residual.max(s.relative_residual);
+    }
+
+    /// The findings, each a sentence with what to try; empty when the run was clean.
+    pub fn findings(&self, body: &ElasticBody, x: &[Vec3], params: &SolverParams) -> Vec<String> {
+        let mut out = Vec::new();
+        let frames = |list: &mut dyn Iterator<Item = usize>| {
+            let v: Vec<String> = list.take(LISTED).map(|f| f.to_string()).collect();
+            v.join(", ")
+        };
+        if let Some((first, why)) = self.unconverged.first() {
+            out.push(format!(
+                "{} frame(s) did not converge (frames {}{}); frame {first}: {why}. Try more \
+                 substeps or a smaller dt, a looser newton_tolerance, or more \
+                 newton_max_iterations",
+                self.unconverged.len(),
+                frames(&mut self.unconverged.iter().map(|u| u.0)),
+                if self.unconverged.len() > LISTED {
+                    ", …"
+                } else {
+                    ""
+                }
+            ));
+        }
+        if !self.cut.is_empty() {
+            let most = self.cut.iter().map(|c| c.1).max().unwrap_or(0);
+            out.push(format!(
+                "{} frame(s) were retried with smaller steps (frames {}; up to {most} substeps): \
+                 dt is large for this body; substeps = {most} would avoid the retries",
+                self.cut.len(),
+                frames(&mut self.cut.iter().map(|c| c.0)),
+            ));
+        }
+        if self.cg_capped > 0 {
+            out.push(format!(
+                "CG stopped at its cap of {} iterations in {} solve(s) (the Newton step was then \
+                 inexact): raise cg_max_iterations or try preconditioner = \"block-jacobi\"",
+                params.cg.max_iterations, self.cg_capped
+            ));
+        }
+        if self.cg_breakdowns > 0 {
+            out.push(if params.definiteness == Definiteness::Exact {
+                format!(
+                    "CG met negative curvature (pᵀAp ≤ 0) in {} solve(s): with definiteness = \
+                     \"exact\" the stiffness is indefinite far from rest; \"projected\" keeps it \
+                     positive semi-definite",
+                    self.cg_breakdowns
+                )
+            } else {
+                format!(
+                    "CG broke down in {} solve(s) although the tangent is projected: the system \
+                     is badly conditioned (a huge stiffness contrast or time step); try a smaller \
+                     dt or more substeps",
+                    self.cg_breakdowns
+                )
+            });
+        }
+        if self.most_clamped.0 > 0 {
+            let (count, frame) = self.most_clamped;
+            out.push(format!(
+                "up to {count} of {} tets ({:.1} %, frame {frame}) needed their tangent clamped \
+                 to stay positive definite (Teran 2005): they were compressed, inverted or \
+                 strongly stretched; expect more Newton iterations there",
+                body.tet_count(),
+                100.0 * count as f64 / body.tet_count() as f64
+            ));
+        }
+        if let Some(text) = describe_inverted(body, x) {
+            out.push(format!(
+                "at the end, {text}: an inverted body recovers under its own elasticity given \
+                 time; if it stays inverted, its boundary conditions may force it"
+            ));
+        }
+        if !self.energy_injected.is_empty() {
+            let total: f64 = self.energy_injected.iter().map(|e| e.1).sum();
+            out.push(format!(
+                "ENERGY INJECTED: {} frame(s) (frames {}) gave back {total:.3e} J more than \
+                 loads and boundaries put in, beyond rounding and the Newton residual: the \
+                 earliest sign of a wrong derivative or an unstable step; run `tetsim check` on \
+                 this scene, and try a smaller dt",
+                self.energy_injected.len(),
+                frames(&mut self.energy_injected.iter().map(|e| e.0)),
+            ));
+        }
+        out
+    }
+}
+
+impl fmt::Display for RunSummary {
+    /// One line: frames, iterations, worst residual, min J.
+    fn fmt(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            out,
+            "{} frames: {} Newton iterations ({:.1}/frame), {} CG iterations ({:.0}/Newton), \
+             worst relative residual {:.1e}, min J {:.3} (frame {})",
+            self.frames,
+            self.newton,
+            self.newton as f64 / self.frames.max(1) as f64,
+            self.cg,
+            self.cg as f64 / self.newton.max(1) as f64,
+            self.worst_residual,
+            self.min_j.0,
+            self.min_j.1
+        )
+    }
+}
