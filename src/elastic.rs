@@ -461,27 +461,48 @@ pub fn corner_gradients(bm: &Mat3) -> [Vec3; 4] {
 }
 
 /// The upper blocks (a ≤ b, row-major: (0,0), (0,1), …, (3,3)) of one tet's 12×12 stiffness
-/// `K_e(a, b) = W·Σ ∂P/∂F : (eⱼ ⊗ b_b) · bₐ` (column j), from its tangent.
+/// `K_e[(a,i),(b,j)] = W·⟨∂P/∂F : (eⱼ ⊗ b_b), eᵢ ⊗ bₐ⟩`, from its tangent.
+///
+/// Computed in the tangent's diagonal space as a Gram form: the unit displacement (a, i) is
+/// dF̂ = uᵢ cₐᵀ there (uᵢ = row i of U, cₐ = Vᵀbₐ); its coordinates z = (diagonal of dF̂, the
+/// symmetric and the antisymmetric combination of each off-diagonal pair) make
+/// `K_e = W·Zᵀ D Z` with D = diag(∂²Ψ̂/∂σ², sym/2, skew/2). About half the work of applying the
+/// tangent to twelve unit dF.
 pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
     let grads = corner_gradients(bm);
-    // dP for each unit displacement (corner b, component j).
-    let mut dp = [[Mat3::zeros(); 3]; 4];
-    for (b, g) in grads.iter().enumerate() {
-        for j in 0..3 {
-            let mut df = Mat3::zeros();
-            df.set_row(j, &g.transpose());
-            dp[b][j] = tangent.apply(&df) * w;
+    let vt = tangent.v.transpose();
+    let mut z = [[0.0f64; 9]; 12];
+    let mut dz = [[0.0f64; 9]; 12];
+    for (a, g) in grads.iter().enumerate() {
+        let c = vt * g;
+        for i in 0..3 {
+            let u = tangent.u.row(i);
+            let d = &mut z[3 * a + i];
+            for l in 0..3 {
+                d[l] = u[l] * c[l];
+            }
+            for (n, &(k, l)) in crate::material::isotropic::PAIRS.iter().enumerate() {
+                let (x, y) = (u[k] * c[l], u[l] * c[k]);
+                d[3 + n] = x + y;
+                d[6 + n] = x - y;
+            }
+            let hd = tangent.diag * Vec3::new(d[0], d[1], d[2]);
+            let e = &mut dz[3 * a + i];
+            e[..3].copy_from_slice(hd.as_slice());
+            for n in 0..3 {
+                e[3 + n] = 0.5 * tangent.pair_sym[n] * z[3 * a + i][3 + n];
+                e[6 + n] = 0.5 * tangent.pair_skew[n] * z[3 * a + i][6 + n];
+            }
         }
     }
     let mut blocks = [Mat3::zeros(); 10];
     let mut k = 0;
     for a in 0..4 {
         for b in a..4 {
-            blocks[k] = Mat3::from_columns(&[
-                dp[b][0] * grads[a],
-                dp[b][1] * grads[a],
-                dp[b][2] * grads[a],
-            ]);
+            blocks[k] = Mat3::from_fn(|i, j| {
+                let (p, q) = (&z[3 * a + i], &dz[3 * b + j]);
+                w * (0..9).map(|m| p[m] * q[m]).sum::<f64>()
+            });
             k += 1;
         }
     }

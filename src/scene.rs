@@ -295,7 +295,7 @@ pub struct SolverSpec {
     pub cg_max_iterations: usize,
     /// "teran" (default; alias "projected"), "analytic", "abs" or "none" (alias "exact").
     pub definiteness: Definiteness,
-    /// "jacobi" (default), "block-jacobi", "amg" or "none".
+    /// "amg" (default), "jacobi", "block-jacobi" or "none".
     pub preconditioner: PreconditionerName,
     /// Backtracking line search. Default true.
     pub line_search: bool,
@@ -322,7 +322,7 @@ impl Default for SolverSpec {
             cg_tolerance: p.cg.tolerance,
             cg_max_iterations: p.cg.max_iterations,
             definiteness: p.definiteness,
-            preconditioner: PreconditionerName::Jacobi,
+            preconditioner: PreconditionerName::Amg,
             line_search: p.line_search,
             inexact_newton: p.inexact_newton,
             on_failure: OnFailureName::Retry,
@@ -347,13 +347,13 @@ pub enum IntegratorName {
 #[serde(rename_all = "kebab-case")]
 pub enum PreconditionerName {
     /// Jacobi.
-    #[default]
     Jacobi,
     /// Block Jacobi.
     BlockJacobi,
     /// None.
     None,
     /// Smoothed-aggregation algebraic multigrid on the assembled system.
+    #[default]
     Amg,
 }
 

@@ -150,9 +150,10 @@ impl Simulation {
         &self.free
     }
 
-    /// Bytes the CG operator moves per product (a model; see `tetsim bench`).
+    /// Bytes the CG operator and preconditioner move per CG iteration (a model; see
+    /// `tetsim bench`). On the assembled path it is known after the first frame.
     pub fn operator_bytes_per_product(&self) -> f64 {
-        self.body.matrix_free_bytes_per_product()
+        self.newton.bytes_per_cg_iteration(&self.body)
     }
 
     /// Kinetic energy ½ vᵀMv, J.

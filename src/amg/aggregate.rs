@@ -32,7 +32,7 @@ pub(crate) fn strong_neighbours<const B: usize>(a: &Bsr<B, B>, theta: f64) -> Ve
         .map(|i| {
             a.row(i)
                 .filter_map(|k| {
-                    let j = a.cols[k] as usize;
+                    let j = a.pattern.cols[k] as usize;
                     let norm = a.values[k].norm();
                     let strong =
                         j != i && norm > 0.0 && norm > theta * (diagonal[i] * diagonal[j]).sqrt();

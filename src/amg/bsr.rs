@@ -9,6 +9,8 @@
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
+use crate::sparse::BlockPattern;
+
 /// Rows per parallel task. Results never depend on it (rows are independent); it only sets the
 /// grain of the work split.
 pub(crate) const ROW_CHUNK: usize = 512;
@@ -24,10 +26,8 @@ pub(crate) type Block<const R: usize, const C: usize> = SMatrix<f64, R, C>;
 /// A sparse matrix of R×C blocks in compressed rows, columns sorted within a row.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Bsr<const R: usize, const C: usize> {
-    /// Row i's blocks are `row_start[i]..row_start[i + 1]`.
-    pub row_start: Vec<u32>,
-    /// Block column of each block.
-    pub cols: Vec<u32>,
+    /// Rows and sorted block columns (the same structure as the assembled system's).
+    pub pattern: BlockPattern,
     /// The blocks.
     pub values: Vec<Block<R, C>>,
     /// Number of block columns.
@@ -37,18 +37,11 @@ pub(crate) struct Bsr<const R: usize, const C: usize> {
 impl<const R: usize, const C: usize> Bsr<R, C> {
     /// Zero blocks on the pattern given by sorted column lists per row.
     pub fn from_rows(rows: &[Vec<u32>], ncols: usize) -> Self {
-        let mut row_start = Vec::with_capacity(rows.len() + 1);
-        row_start.push(0u32);
-        let mut cols = Vec::with_capacity(rows.iter().map(Vec::len).sum());
-        for r in rows {
-            debug_assert!(r.windows(2).all(|w| w[0] < w[1]));
-            cols.extend_from_slice(r);
-            row_start.push(cols.len() as u32);
-        }
-        let values = vec![Block::<R, C>::zeros(); cols.len()];
+        debug_assert!(rows.iter().all(|r| r.windows(2).all(|w| w[0] < w[1])));
+        let pattern = BlockPattern::from_rows(rows);
+        let values = vec![Block::<R, C>::zeros(); pattern.blocks()];
         Bsr {
-            row_start,
-            cols,
+            pattern,
             values,
             ncols,
         }
@@ -56,27 +49,23 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
 
     /// Number of block rows.
     pub fn rows(&self) -> usize {
-        self.row_start.len() - 1
+        self.pattern.rows()
     }
 
     /// Number of stored blocks.
     pub fn blocks(&self) -> usize {
-        self.cols.len()
+        self.pattern.blocks()
     }
 
     /// Block range of row i.
     #[inline]
     pub fn row(&self, i: usize) -> std::ops::Range<usize> {
-        self.row_start[i] as usize..self.row_start[i + 1] as usize
+        self.pattern.row(i)
     }
 
     /// Index of block (i, j), if stored.
     pub fn find(&self, i: usize, j: usize) -> Option<usize> {
-        let range = self.row(i);
-        self.cols[range.clone()]
-            .binary_search(&(j as u32))
-            .ok()
-            .map(|k| range.start + k)
+        self.pattern.find(i, j)
     }
 
     /// `y = M·x`.
@@ -110,7 +99,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     pub fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
         let mut sum = Vector::<R>::zeros();
         for k in self.row(i) {
-            sum += self.values[k] * x[self.cols[k] as usize];
+            sum += self.values[k] * x[self.pattern.cols[k] as usize];
         }
         sum
     }
@@ -118,7 +107,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over row chunks.
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Block<R, C>]) + Sync) {
         let n = self.rows();
-        let (row_start, cols) = (&self.row_start, &self.cols);
+        let (row_start, cols) = (&self.pattern.row_start, &self.pattern.cols);
         let mut chunks: Vec<(usize, &mut [Block<R, C>])> =
             Vec::with_capacity(n.div_ceil(ROW_CHUNK));
         let mut rest: &mut [Block<R, C>] = &mut self.values;
@@ -143,7 +132,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     /// of `self` it mirrors.
     pub fn transpose_pattern(&self) -> (Bsr<C, R>, Vec<u32>) {
         let mut counts = vec![0u32; self.ncols + 1];
-        for &j in &self.cols {
+        for &j in &self.pattern.cols {
             counts[j as usize + 1] += 1;
         }
         for j in 0..self.ncols {
@@ -155,7 +144,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
         // Rows in increasing order, so every transposed row comes out sorted.
         for i in 0..self.rows() {
             for k in self.row(i) {
-                let j = self.cols[k] as usize;
+                let j = self.pattern.cols[k] as usize;
                 let at = fill[j] as usize;
                 cols[at] = i as u32;
                 map[at] = k as u32;
@@ -163,9 +152,11 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
             }
         }
         let t = Bsr {
-            row_start: counts,
             values: vec![Block::<C, R>::zeros(); cols.len()],
-            cols,
+            pattern: BlockPattern {
+                row_start: counts,
+                cols,
+            },
             ncols: self.rows(),
         };
         (t, map)
@@ -191,9 +182,9 @@ pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
     for i in 0..a.rows() {
         let mut row = Vec::new();
         for ka in a.row(i) {
-            let k = a.cols[ka] as usize;
+            let k = a.pattern.cols[ka] as usize;
             for kb in b.row(k) {
-                let j = b.cols[kb];
+                let j = b.pattern.cols[kb];
                 if marker[j as usize] != i as u32 {
                     marker[j as usize] = i as u32;
                     row.push(j);
@@ -224,11 +215,11 @@ pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
         let cols = &cols[first..];
         let row = &mut row[first..];
         for ka in a.row(i) {
-            let k = a.cols[ka] as usize;
+            let k = a.pattern.cols[ka] as usize;
             let block = &a.values[ka];
             let range = b.row(k);
             // Columns below the first wanted one are skipped without a search.
-            let bcols = &b.cols[range.clone()];
+            let bcols = &b.pattern.cols[range.clone()];
             let skip = if upper {
                 bcols.partition_point(|&j| (j as usize) < i)
             } else {
@@ -252,7 +243,7 @@ pub(crate) fn mirror_pairs<const B: usize>(m: &Bsr<B, B>) -> Vec<(u32, u32)> {
     let mut pairs = Vec::new();
     for i in 0..m.rows() {
         for k in m.row(i) {
-            let j = m.cols[k] as usize;
+            let j = m.pattern.cols[k] as usize;
             if j < i {
                 pairs.push((k as u32, m.find(j, i).expect("symmetric pattern") as u32));
             }
@@ -292,7 +283,7 @@ mod tests {
         let mut d = nalgebra::DMatrix::zeros(R * m.rows(), C * m.ncols);
         for i in 0..m.rows() {
             for k in m.row(i) {
-                let j = m.cols[k] as usize;
+                let j = m.pattern.cols[k] as usize;
                 d.view_mut((R * i, C * j), (R, C)).copy_from(&m.values[k]);
             }
         }

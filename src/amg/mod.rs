@@ -130,8 +130,7 @@ impl Amg {
         let n = a.rows();
         assert!(positions.len() == n && free.len() == n);
         let fine_a = Bsr::<3, 3> {
-            row_start: a.pattern.row_start.clone(),
-            cols: a.pattern.cols.clone(),
+            pattern: a.pattern.clone(),
             values: a.values.clone(),
             ncols: n,
         };
@@ -382,10 +381,10 @@ impl<const B: usize> Level<B> {
         t.p.for_each_row_mut(|i, cols, row| {
             row.iter_mut().for_each(|v| *v = Block::zeros());
             for k in a.row(i) {
-                let j = a.cols[k] as usize;
+                let j = a.pattern.cols[k] as usize;
                 for kt in tent.row(j) {
                     let at = cols
-                        .binary_search(&tent.cols[kt])
+                        .binary_search(&tent.pattern.cols[kt])
                         .expect("P holds the pattern of A·T");
                     row[at] += a.values[k] * tent.values[kt];
                 }
@@ -396,7 +395,9 @@ impl<const B: usize> Level<B> {
                 *v = left * *v;
             }
             for kt in tent.row(i) {
-                let at = cols.binary_search(&tent.cols[kt]).expect("diagonal of T");
+                let at = cols
+                    .binary_search(&tent.pattern.cols[kt])
+                    .expect("diagonal of T");
                 row[at] += scale * tent.values[kt];
             }
         });

@@ -197,7 +197,7 @@ impl Direct {
         let mut dense = DMatrix::<f64>::zeros(n, n);
         for i in 0..a.rows() {
             for k in a.row(i) {
-                let j = a.cols[k] as usize;
+                let j = a.pattern.cols[k] as usize;
                 dense
                     .view_mut((B * i, B * j), (B, B))
                     .copy_from(&a.values[k]);
