@@ -15,7 +15,7 @@
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::material::{Definiteness, Model, Tangent};
+use crate::material::{Definiteness, DiagonalPieces, Model, Tangent};
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
 use crate::sparse::{BlockCsr, BlockPattern};
@@ -356,7 +356,11 @@ impl ElasticBody {
     pub fn linearize_into(&self, x: &[Vec3], lin: &mut Linearization, forces: &mut [Vec3]) -> f64 {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(lin.tangents.len(), self.tet_count());
-        let definiteness = lin.definiteness;
+        // `adaptive` evaluates the exact tangent and projects it below, keeping the exact pieces.
+        let definiteness = match lin.definiteness {
+            Definiteness::Adaptive => Definiteness::Exact,
+            d => d,
+        };
         lin.tangents
             .par_chunks_mut(CHUNK)
             .zip(lin.buffer.par_chunks_mut(CHUNK))
@@ -377,11 +381,20 @@ impl ElasticBody {
                 *energy = sum;
             });
         self.incidence.gather(&lin.buffer, forces, false);
+        if !lin.alternate.is_empty() {
+            lin.tangents
+                .par_iter_mut()
+                .zip(lin.alternate.par_iter_mut())
+                .with_min_len(CHUNK)
+                .for_each(|(t, a)| t.project_keeping_exact(a));
+            lin.exact_active = false;
+        }
         lin.clamped_tets = lin
             .tangents
             .iter()
             .filter(|t| t.clamped_pieces() > 0)
             .count();
+        lin.inverted_tets = lin.tangents.iter().filter(|t| t.is_inverted()).count();
         lin.chunk_energy.iter().sum()
     }
 
@@ -620,9 +633,14 @@ pub fn tet_forces(p: &Mat3, bm: &Mat3, w: f64) -> TetVectors {
 pub struct Linearization {
     definiteness: Definiteness,
     tangents: Vec<Tangent>,
+    /// `adaptive` only: per tet the pieces not in use (the exact ones while `tangents` holds
+    /// the projected ones, and the other way round after [`Linearization::use_exact`]).
+    alternate: Vec<DiagonalPieces>,
+    exact_active: bool,
     buffer: Vec<TetVectors>,
     chunk_energy: Vec<f64>,
     clamped_tets: usize,
+    inverted_tets: usize,
 }
 
 impl Linearization {
@@ -630,12 +648,19 @@ impl Linearization {
     pub fn new(body: &ElasticBody, definiteness: Definiteness) -> Self {
         let n = body.tet_count();
         let rest = crate::material::Material::tangent(&body.model, &Mat3::identity(), definiteness);
+        let alternate = match definiteness {
+            Definiteness::Adaptive => vec![DiagonalPieces::default(); n],
+            _ => Vec::new(),
+        };
         Linearization {
             definiteness,
             tangents: vec![rest; n],
+            alternate,
+            exact_active: false,
             buffer: vec![[Vec3::zeros(); 4]; n],
             chunk_energy: vec![0.0; n.div_ceil(CHUNK)],
             clamped_tets: 0,
+            inverted_tets: 0,
         }
     }
 
@@ -652,5 +677,31 @@ impl Linearization {
     /// How many tets had part of their tangent clamped by the definiteness fix.
     pub fn clamped_tets(&self) -> usize {
         self.clamped_tets
+    }
+
+    /// How many tets were inverted or flat (σ₃ ≤ 0).
+    pub fn inverted_tets(&self) -> usize {
+        self.inverted_tets
+    }
+
+    /// With the `adaptive` strategy, switch the clamped tets to their exact tangents (`true`)
+    /// or back to the projected ones (`false`); a linearization starts projected. Does nothing
+    /// for the other strategies.
+    pub fn use_exact(&mut self, exact: bool) {
+        if self.alternate.is_empty() || exact == self.exact_active {
+            return;
+        }
+        self.tangents
+            .par_iter_mut()
+            .zip(self.alternate.par_iter_mut())
+            .with_min_len(CHUNK)
+            .filter(|(t, _)| t.clamped_pieces() > 0)
+            .for_each(|(t, a)| t.swap_pieces(a));
+        self.exact_active = exact;
+    }
+
+    /// True while [`Linearization::use_exact`] has the exact tangents in use.
+    pub fn exact_in_use(&self) -> bool {
+        self.exact_active
     }
 }

@@ -301,6 +301,8 @@ pub struct SolverSpec {
     pub line_search: bool,
     /// Inexact Newton (CG only as tight as the Newton target needs). Default true.
     pub inexact_newton: bool,
+    /// Assembled matrix CG multiplies with (AMG path): false f64 full, true f32 upper triangle.
+    pub f32_matrix: bool,
     /// "retry" (default), "continue" or "stop".
     pub on_failure: OnFailureName,
     /// Step halvings allowed by "retry". Default 4.
@@ -325,6 +327,7 @@ impl Default for SolverSpec {
             preconditioner: PreconditionerName::Amg,
             line_search: p.line_search,
             inexact_newton: p.inexact_newton,
+            f32_matrix: p.f32_matrix,
             on_failure: OnFailureName::Retry,
             max_step_cuts: p.max_step_cuts,
         }
@@ -676,6 +679,7 @@ impl Scene {
             amg: crate::amg::AmgParams::default(),
             line_search: s.line_search,
             inexact_newton: s.inexact_newton,
+            f32_matrix: s.f32_matrix,
             on_failure: match s.on_failure {
                 OnFailureName::Retry => OnFailure::Retry,
                 OnFailureName::Continue => OnFailure::Continue,

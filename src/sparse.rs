@@ -255,6 +255,16 @@ impl UpperF32 {
         self.spill_buffer = vec![Vec3::zeros(); offset];
     }
 
+    /// Block rows.
+    pub fn rows(&self) -> usize {
+        self.row_start.len().saturating_sub(1)
+    }
+
+    /// Bytes of the stored matrix: values and column indices, row starts.
+    pub fn matrix_bytes(&self) -> usize {
+        self.values.len() * (36 + 4) + 4 * self.row_start.len()
+    }
+
     /// Bytes the product reads and writes per call (matrix, indices, vectors), for roofline
     /// figures.
     pub fn bytes_per_product(&self) -> usize {

@@ -1,4 +1,4 @@
-//! `tetsim compare SCENE --definiteness teran,analytic,abs,none`: run one scene with each
+//! `tetsim compare SCENE --definiteness adaptive,teran,analytic,abs,none`: run one scene with each
 //! definiteness strategy and tabulate what it cost (nothing is written to disk).
 
 use std::path::PathBuf;
@@ -13,7 +13,11 @@ pub struct CompareArgs {
     /// Scene file (TOML). Without it, the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Strategies to compare (teran, analytic, abs, none).
-    #[arg(long, value_delimiter = ',', default_value = "teran,analytic,abs,none")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "adaptive,teran,analytic,abs,none"
+    )]
     pub definiteness: Vec<String>,
     /// Number of frames (overrides [solver] frames).
     #[arg(long)]

@@ -218,6 +218,7 @@ impl<M: Isotropic> Invertible<M> {
             pair_skew: d.pair_skew,
             clamped: 0,
             indefinite: 0,
+            inverted: s[2] <= 0.0,
         };
         tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
@@ -257,7 +258,7 @@ impl Tangent {
         let clamp = |x: f64| x.max(0.0);
         match d {
             Definiteness::Exact => self.count_indefinite(),
-            Definiteness::Projected => self.fix(clamp_psd3, clamp),
+            Definiteness::Projected | Definiteness::Adaptive => self.fix(clamp_psd3, clamp),
             Definiteness::Abs => self.fix(abs_psd3, f64::abs),
             Definiteness::Analytic => match closed_form() {
                 Some((lambda, q)) => self.fix(|a| map_eigenvalues(a, &lambda, &q, clamp), clamp),

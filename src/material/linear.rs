@@ -81,6 +81,7 @@ impl Material for LinearElastic {
             pair_skew: Vec3::zeros(),
             clamped: 0,
             indefinite: 0,
+            inverted: false,
         };
         // Corotated's block, and the same closed form: (2μ + 3λ, 1/√3 (1,1,1)) and 2μ twice.
         tangent.make_definite(definiteness, || {

@@ -13,16 +13,19 @@ pub fn check_strategies(model: &Model, seed: u64) {
             let f = sample_f(&mut rng, family)
                 + 0.5 * random_matrix(&mut rng) * (family == Family::Random) as u8 as f64;
             let tangent = |d| model.tangent(&f, d);
-            let [teran, analytic, abs, exact] = Definiteness::ALL.map(tangent);
+            let [adaptive, teran, analytic, abs, exact] = Definiteness::ALL.map(tangent);
             let matrix = |d| tangent_matrix(|x| model.tangent(&f, d).apply(x));
-            let [m_teran, m_analytic, m_abs, m_exact] = Definiteness::ALL.map(matrix);
+            let [m_adaptive, m_teran, m_analytic, m_abs, m_exact] = Definiteness::ALL.map(matrix);
             let norm = m_exact.norm().max(stress_scale(lame()));
 
             assert_eq!(exact.clamped_pieces(), 0);
             assert_eq!(exact.indefinite_pieces(), teran.clamped_pieces(), "at {f}");
             assert_eq!(teran.clamped_pieces(), abs.clamped_pieces(), "at {f}");
             assert_eq!(teran.clamped_pieces(), analytic.clamped_pieces(), "at {f}");
-            for t in [&teran, &analytic, &abs, &exact] {
+            // Per element, `adaptive` is `teran`: the solver holds the exact pieces beside it.
+            assert_eq!(m_adaptive, m_teran, "at {f}");
+            assert_eq!(adaptive.clamped_pieces(), teran.clamped_pieces(), "at {f}");
+            for t in [&teran, &analytic, &abs, &exact, &adaptive] {
                 assert_eq!(t.indefinite_pieces(), exact.indefinite_pieces(), "at {f}");
             }
             indefinite_seen += (exact.indefinite_pieces() > 0) as usize;
@@ -52,7 +55,7 @@ fn definiteness_names_round_trip() {
         assert_eq!(d.to_string(), d.name());
         assert_eq!(d.is_psd(), d != Definiteness::Exact);
     }
-    assert_eq!(Definiteness::default(), Definiteness::TERAN);
+    assert_eq!(Definiteness::default(), Definiteness::Adaptive);
     assert_eq!(Definiteness::TERAN, Definiteness::Projected);
     assert_eq!(Definiteness::NONE, Definiteness::Exact);
     let aliases = [
