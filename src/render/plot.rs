@@ -44,6 +44,9 @@ pub struct StepsTable {
     pub elastic_energy: Vec<f64>,
     /// Kinetic energy per frame (J).
     pub kinetic_energy: Vec<f64>,
+    /// Gravitational potential energy per frame (J), when the file has the column (an
+    /// extension column: older files and other writers may lack it).
+    pub gravitational_energy: Option<Vec<f64>>,
 }
 
 impl StepsTable {
@@ -80,8 +83,12 @@ impl StepsTable {
             column("elastic_energy")?,
             column("kinetic_energy")?,
         ];
+        let gravity_col = names.get("gravitational_energy").copied();
         let header_len = header.split(',').count();
-        let mut table = StepsTable::default();
+        let mut table = StepsTable {
+            gravitational_energy: gravity_col.map(|_| Vec::new()),
+            ..StepsTable::default()
+        };
         for (i, line) in lines {
             let fields: Vec<&str> = line.split(',').map(str::trim).collect();
             if fields.len() < header_len {
@@ -113,6 +120,9 @@ impl StepsTable {
             });
             table.elastic_energy.push(number(cols[5])?);
             table.kinetic_energy.push(number(cols[6])?);
+            if let (Some(c), Some(v)) = (gravity_col, table.gravitational_energy.as_mut()) {
+                v.push(number(c)?);
+            }
         }
         Ok(table)
     }
@@ -369,17 +379,27 @@ fn residual_plot(t: &StepsTable, area: &Area) -> DrawResult {
     finish_legend(&mut chart)
 }
 
-/// Elastic, kinetic and total energy.
+/// Elastic, kinetic and total energy; the total includes the change of gravitational energy
+/// since the first frame when the file has it (so a falling body's total stays level but for
+/// damping and backward Euler's dissipation, and may go below zero).
 fn energy_plot(t: &StepsTable, area: &Area) -> DrawResult {
-    let total: Vec<f64> = t
-        .elastic_energy
-        .iter()
-        .zip(&t.kinetic_energy)
-        .map(|(e, k)| e + k)
+    let gravity = |i: usize| {
+        t.gravitational_energy
+            .as_ref()
+            .map_or(0.0, |g| g[i] - g.first().copied().unwrap_or(0.0))
+    };
+    let total: Vec<f64> = (0..t.frame.len())
+        .map(|i| t.elastic_energy[i] + t.kinetic_energy[i] + gravity(i))
         .collect();
     let (x0, x1) = frame_range(t);
     let all: Vec<f64> = [&t.elastic_energy[..], &t.kinetic_energy[..], &total[..]].concat();
-    let (y0, y1) = up_to_max(&all);
+    let (_, y1) = up_to_max(&all);
+    let low = all
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::min);
+    let y0 = if low < 0.0 { 1.3 * low } else { 0.0 };
     let mut chart = ChartBuilder::on(area)
         .caption("energy per frame", title_font(24.0))
         .margin(16)
@@ -398,8 +418,12 @@ fn energy_plot(t: &StepsTable, area: &Area) -> DrawResult {
         .label_style(title_font(15.0))
         .axis_desc_style(title_font(17.0))
         .draw()?;
+    let total_label = match t.gravitational_energy {
+        Some(_) => "total (with gravity)",
+        None => "total",
+    };
     for (values, colour, label) in [
-        (&total, GREY, "total"),
+        (&total, GREY, total_label),
         (&t.elastic_energy, BLUE, "elastic"),
         (&t.kinetic_energy, ORANGE, "kinetic"),
     ] {
@@ -454,6 +478,13 @@ elastic_energy,kinetic_energy,min_J,inverted_elements,wall_seconds,extra\n\
         assert_eq!(t.cg_iterations, vec![0.0, 40.0]);
         assert_eq!(t.converged, vec![true, true]);
         assert_eq!(t.kinetic_energy, vec![0.0, 1.0]);
+        assert_eq!(t.gravitational_energy, None);
+        let with_gravity = CSV
+            .replace(",extra\n", ",gravitational_energy\n")
+            .replace(",x\n", ",5\n")
+            .replace(",y\n", ",1.5\n");
+        let t = StepsTable::parse(Path::new("steps.csv"), &with_gravity).unwrap();
+        assert_eq!(t.gravitational_energy, Some(vec![5.0, 1.5]));
     }
 
     #[test]
