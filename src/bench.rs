@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::Result;
+use crate::mesh::ordering::VertexOrder;
 use crate::scene::Scene;
 use crate::sim::Simulation;
 
@@ -34,6 +35,8 @@ pub struct BenchParams {
     pub repeats: usize,
     /// Extra `[solver]` lines appended to the workload scene (e.g. `preconditioner = "amg"`).
     pub solver_overrides: String,
+    /// Internal vertex order (`[mesh] reorder`); `random` measures a badly numbered mesh.
+    pub reorder: VertexOrder,
 }
 
 impl Default for BenchParams {
@@ -43,6 +46,7 @@ impl Default for BenchParams {
             frames: 30,
             repeats: 3,
             solver_overrides: String::new(),
+            reorder: VertexOrder::default(),
         }
     }
 }
@@ -101,15 +105,23 @@ pub struct BenchReport {
     pub sizes: Vec<SizeReport>,
     /// The solver overrides used.
     pub solver_overrides: String,
+    /// The vertex order used.
+    pub reorder: VertexOrder,
 }
 
 /// The workload scene for size n.
-pub fn workload_scene(n: usize, frames: usize, solver_overrides: &str) -> Result<Scene> {
+pub fn workload_scene(
+    n: usize,
+    frames: usize,
+    solver_overrides: &str,
+    reorder: VertexOrder,
+) -> Result<Scene> {
     let text = format!(
         r#"
 gravity = [0.0, -9.81, 0.0]
 [mesh]
 generator = {{ box = {{ min = [0.0, 0.0, 0.0], max = [4.0, 1.0, 1.0], cells = [{}, {n}, {n}] }} }}
+reorder = "{}"
 [material]
 model = "neo-hookean"
 youngs_modulus = 1.0e6
@@ -124,7 +136,8 @@ rayleigh_stiffness = 0.01
 newton_tolerance = 1e-4
 {solver_overrides}
 "#,
-        4 * n
+        4 * n,
+        reorder.name()
     );
     Scene::parse(
         &text,
@@ -194,7 +207,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
     progress(&format!("STREAM triad: {stream:.1} GB/s"));
     let mut sizes = Vec::new();
     for &n in &params.sizes {
-        let scene = workload_scene(n, params.frames, &params.solver_overrides)?;
+        let scene = workload_scene(n, params.frames, &params.solver_overrides, params.reorder)?;
         let mut per_frame = Vec::new();
         let (mut newton, mut cg, mut frames) = (0usize, 0usize, 0usize);
         let mut timings = crate::integrator::Timings::default();
@@ -270,6 +283,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         stream_triad_gb_per_s: stream,
         sizes,
         solver_overrides: params.solver_overrides.clone(),
+        reorder: params.reorder,
     })
 }
 
@@ -277,10 +291,11 @@ impl BenchReport {
     /// The human-readable table.
     pub fn table(&self) -> String {
         let mut s = format!(
-            "tetsim {} bench, {} threads, STREAM triad {:.1} GB/s{}\n",
+            "tetsim {} bench, {} threads, STREAM triad {:.1} GB/s, vertex order {}{}\n",
             self.version,
             self.threads,
             self.stream_triad_gb_per_s,
+            self.reorder.name(),
             if self.solver_overrides.trim().is_empty() {
                 String::new()
             } else {

@@ -504,7 +504,11 @@ impl Newton {
         x: &mut [Vec3],
         v: &mut [Vec3],
     ) -> NewtonInfo {
-        let mut info = NewtonInfo::default();
+        let mut info = NewtonInfo {
+            // One allocation per step, none per iteration.
+            history: Vec::with_capacity(params.newton_max_iterations + 1),
+            ..Default::default()
+        };
         self.timings = Timings::default();
         let floor = absolute_floor(body);
         let (k_scale, m_scale) = match kind {

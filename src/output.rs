@@ -39,6 +39,9 @@ pub struct Recorder {
     write_obj: bool,
     deterministic: bool,
     surface: Vec<[usize; 3]>,
+    /// Whether `surface` names the input mesh's vertices (set at the first frame of a
+    /// simulation on a renumbered mesh).
+    surface_in_file_order: bool,
     pvd: Vec<(f64, String)>,
     csv: String,
     timings: String,
@@ -54,6 +57,7 @@ impl Recorder {
             dir: dir.to_path_buf(),
             write_obj,
             surface: body.mesh.boundary_faces(),
+            surface_in_file_order: false,
             deterministic: false,
             pvd: Vec::new(),
             csv: format!("{STEPS_HEADER}\n"),
@@ -90,27 +94,42 @@ impl Recorder {
     pub fn write_frame(&mut self, sim: &Simulation, stats: Option<&StepStats>) -> Result<()> {
         let frame = sim.frame();
         let body = &sim.body;
-        let x = &sim.state.x;
         let name = format!("frame_{frame:04}.vtu");
-        let displacement: Vec<Vec3> = x
-            .iter()
-            .zip(&body.mesh.positions)
-            .map(|(x, rest)| x - rest)
-            .collect();
-        let j = body.jacobians(x);
-        let psi = body.energy_densities(x);
-        let von_mises = body.von_mises_stresses(x);
+        let mut x = sim.state.x.clone();
+        let mut v = sim.state.v.clone();
+        let mut rest = body.mesh.positions.clone();
+        let mut j = body.jacobians(&x);
+        let mut psi = body.energy_densities(&x);
+        let mut von_mises = body.von_mises_stresses(&x);
         // How many components of each vertex are prescribed (0–3): lets `tetsim render` mark
         // fixed vertices from the frames alone.
-        let fixed: Vec<f64> = sim.free_mask().iter().map(|m| 3.0 - m.sum()).collect();
+        let mut fixed: Vec<f64> = sim.free_mask().iter().map(|m| 3.0 - m.sum()).collect();
+        let mut tets = body.mesh.tets.clone();
+        // A simulation on a renumbered mesh writes in the input mesh's numbering.
+        if let Some(r) = sim.renumbering() {
+            for field in [&mut x, &mut v, &mut rest] {
+                *field = r.vertices_to_old(field);
+            }
+            fixed = r.vertices_to_old(&fixed);
+            for field in [&mut j, &mut psi, &mut von_mises] {
+                *field = r.tets_to_old(field);
+            }
+            tets = r.tets_to_old_mesh(&tets);
+            if !self.surface_in_file_order {
+                self.surface =
+                    crate::mesh::TetMesh::new(rest.clone(), tets.clone()).boundary_faces();
+                self.surface_in_file_order = true;
+            }
+        }
+        let displacement: Vec<Vec3> = x.iter().zip(&rest).map(|(x, rest)| x - rest).collect();
         let path = self.dir.join(&name);
         write_vtu(
             &path,
-            x,
-            &body.mesh.tets,
+            &x,
+            &tets,
             &[
                 ("displacement", Field::Vector(&displacement)),
-                ("velocity", Field::Vector(&sim.state.v)),
+                ("velocity", Field::Vector(&v)),
                 ("fixed", Field::Scalar(&fixed)),
             ],
             &[
@@ -124,7 +143,7 @@ impl Recorder {
         if self.write_obj {
             let obj = format!("surface_{frame:04}.obj");
             let path = self.dir.join(&obj);
-            write_obj(&path, x, &self.surface)?;
+            write_obj(&path, &x, &self.surface)?;
             files.push((obj, crate::manifest::sha256_file(&path)?));
             self.note(path);
         }
@@ -143,7 +162,7 @@ impl Recorder {
                 frame,
                 time: sim.state.t,
                 converged: true,
-                elastic_energy: body.energy(x),
+                elastic_energy: body.energy(&sim.state.x),
                 kinetic_energy: sim.kinetic_energy(),
                 min_j: j.iter().copied().fold(f64::INFINITY, f64::min),
                 inverted_elements: j.iter().filter(|&&j| j <= 0.0).count(),

@@ -15,6 +15,7 @@ use crate::material::{Definiteness, Lame, Model, ModelKind};
 use crate::math::Vec3;
 use crate::mesh::TetMesh;
 use crate::mesh::generate::box_mesh;
+use crate::mesh::ordering::{Renumbering, VertexOrder};
 use crate::sim::{Simulation, State};
 
 /// The built-in default scene (also `scenes/default.toml`, embedded so they never diverge).
@@ -92,6 +93,10 @@ pub struct MeshSpec {
     /// `tetsim run --force` sets it.
     #[serde(default)]
     pub force: bool,
+    /// Internal vertex and tet numbering for memory locality (output keeps the file's):
+    /// "rcm" (default), "morton", "none", or "random" (the worst case, for benchmarks).
+    #[serde(default)]
+    pub reorder: VertexOrder,
 }
 
 /// Built-in mesh generators.
@@ -691,6 +696,16 @@ impl Scene {
 
     /// Constraints, loads and gravity on `mesh`.
     pub fn build_boundary(&self, mesh: &TetMesh) -> Result<Boundary> {
+        self.build_boundary_renumbered(mesh, None)
+    }
+
+    /// [`Scene::build_boundary`] on a renumbered mesh: `vertices = [...]` lists name the input
+    /// mesh's vertices and are mapped through `renumbering`.
+    pub fn build_boundary_renumbered(
+        &self,
+        mesh: &TetMesh,
+        renumbering: Option<&Renumbering>,
+    ) -> Result<Boundary> {
         let region_error = |what: &str, i: usize, message: String| Error::Scene {
             path: self.path.clone(),
             line: nth_table_line(&self.source, what, i).unwrap_or(1),
@@ -702,7 +717,7 @@ impl Scene {
             ..Default::default()
         };
         for (i, fixed) in self.fixed.iter().enumerate() {
-            let vertices = region(&fixed.region)
+            let vertices = region(&fixed.region, renumbering)
                 .select(mesh)
                 .map_err(|m| region_error("fixed", i, m))?;
             let mut components = [true; 3];
@@ -727,7 +742,7 @@ impl Scene {
             });
         }
         for (i, spec) in self.load.iter().enumerate() {
-            let vertices = region(&spec.region)
+            let vertices = region(&spec.region, renumbering)
                 .select(mesh)
                 .map_err(|m| region_error("load", i, m))?;
             let mut load = if let Some(t) = spec.traction {
@@ -746,9 +761,23 @@ impl Scene {
 
     /// The initial state: rest or file positions, the initial velocity on free components.
     pub fn initial_state(&self, body: &ElasticBody) -> Result<State> {
+        self.initial_state_renumbered(body, None)
+    }
+
+    /// [`Scene::initial_state`] for a body on a renumbered mesh: the positions file lists the
+    /// input mesh's vertices in its order.
+    pub fn initial_state_renumbered(
+        &self,
+        body: &ElasticBody,
+        renumbering: Option<&Renumbering>,
+    ) -> Result<State> {
         let mut state = Simulation::rest_state(body);
         if let Some(file) = &self.initial.positions {
-            state.x = crate::io::read_positions(&self.resolve(file), body.vertex_count())?;
+            let x = crate::io::read_positions(&self.resolve(file), body.vertex_count())?;
+            state.x = match renumbering {
+                Some(r) => r.to_new(&x),
+                None => x,
+            };
         }
         state
             .v
@@ -758,7 +787,7 @@ impl Scene {
     }
 }
 
-fn region(spec: &RegionSpec) -> Region {
+fn region(spec: &RegionSpec, renumbering: Option<&Renumbering>) -> Region {
     match spec {
         RegionSpec::Box { min, max } => Region::Box {
             min: Vec3::from(*min),
@@ -768,7 +797,14 @@ fn region(spec: &RegionSpec) -> Region {
             point: Vec3::from(*point),
             normal: Vec3::from(*normal),
         },
-        RegionSpec::Vertices(v) => Region::Vertices(v.clone()),
+        RegionSpec::Vertices(v) => Region::Vertices(match renumbering {
+            // Out-of-range indices stay as given, for the error message.
+            Some(r) => v
+                .iter()
+                .map(|&i| r.vertex_new.get(i).copied().unwrap_or(i))
+                .collect(),
+            None => v.clone(),
+        }),
         RegionSpec::Physical(name) => Region::Physical(name.clone()),
     }
 }
@@ -776,7 +812,12 @@ fn region(spec: &RegionSpec) -> Region {
 impl Simulation {
     /// Everything a scene describes, ready to step.
     pub fn from_scene(scene: &Scene) -> Result<Simulation> {
-        let mesh = scene.build_mesh()?;
+        let file_mesh = scene.build_mesh()?;
+        let renumbering = Renumbering::new(&file_mesh, scene.mesh.reorder);
+        let mesh = match &renumbering {
+            Some(r) => r.apply(&file_mesh),
+            None => file_mesh,
+        };
         let lame = scene.lame().map_err(|m| Error::parameter("material", m))?;
         let model = Model::new(scene.material.model, lame);
         let mesh_path = scene.mesh.file.as_ref().map(|f| scene.resolve(f));
@@ -804,9 +845,12 @@ impl Simulation {
                 },
                 other => other,
             })?;
-        let boundary = scene.build_boundary(&body.mesh)?;
-        let initial = scene.initial_state(&body)?;
-        Simulation::new(body, boundary, scene.solver_params(), initial)
+        let boundary = scene.build_boundary_renumbered(&body.mesh, renumbering.as_ref())?;
+        let initial = scene.initial_state_renumbered(&body, renumbering.as_ref())?;
+        Ok(
+            Simulation::new(body, boundary, scene.solver_params(), initial)?
+                .with_renumbering(renumbering),
+        )
     }
 }
 
@@ -864,7 +908,7 @@ fn select_tets(spec: &RegionSpec, mesh: &TetMesh) -> std::result::Result<Vec<usi
                     g.dim
                 ));
             }
-            None => return region(spec).select(mesh).map(|_| Vec::new()),
+            None => return region(spec, None).select(mesh).map(|_| Vec::new()),
         },
         RegionSpec::Box { min, max } => (0..mesh.tets.len())
             .filter(|&t| (0..3).all(|k| centroid(t)[k] >= min[k] && centroid(t)[k] <= max[k]))

@@ -21,6 +21,7 @@ use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
 use crate::integrator::{Integrator, Newton, OnFailure, SolverParams, StepKind, StepStats};
 use crate::math::Vec3;
+use crate::mesh::ordering::Renumbering;
 
 /// Positions (m), velocities (m/s) and time (s; the load factor when quasistatic).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -56,6 +57,7 @@ pub struct Simulation {
     /// The positions the ledger was made for: `state` is public, and a caller that moves it
     /// between frames must not show up as energy created by the step.
     ledger_x: Vec<Vec3>,
+    renumbering: Option<Renumbering>,
 }
 
 impl Simulation {
@@ -118,7 +120,20 @@ impl Simulation {
             boundary,
             params,
             state,
+            renumbering: None,
         })
+    }
+
+    /// Say that the body's mesh is a renumbering of the input mesh (see
+    /// [`crate::mesh::ordering`]), so that output is written in the input's numbering.
+    pub fn with_renumbering(mut self, renumbering: Option<Renumbering>) -> Self {
+        self.renumbering = renumbering;
+        self
+    }
+
+    /// How the body's mesh renumbers the input mesh (None: it is the input's numbering).
+    pub fn renumbering(&self) -> Option<&Renumbering> {
+        self.renumbering.as_ref()
     }
 
     /// The body at rest: positions = rest positions, zero velocity.

@@ -82,6 +82,36 @@ impl BlockPattern {
     }
 }
 
+/// Run `f` on every row of the row chunks `chunks` (of [`ROW_CHUNK`] rows each), whose blocks
+/// are `values`: halves the chunk range and recurses with `rayon::join`, so the rows' disjoint
+/// slices are handed out without allocating a list of them (this runs once per Newton iterate).
+fn rows_in_chunks(
+    p: &BlockPattern,
+    chunks: std::ops::Range<usize>,
+    values: &mut [Mat3],
+    f: &(impl Fn(usize, &[u32], &mut [Mat3]) + Sync),
+) {
+    let n = p.rows();
+    let first_row = |chunk: usize| (chunk * ROW_CHUNK).min(n);
+    if chunks.len() > 1 {
+        let mid = chunks.start + chunks.len() / 2;
+        let split = (p.row_start[first_row(mid)] - p.row_start[first_row(chunks.start)]) as usize;
+        let (head, tail) = values.split_at_mut(split);
+        rayon::join(
+            || rows_in_chunks(p, chunks.start..mid, head, f),
+            || rows_in_chunks(p, mid..chunks.end, tail, f),
+        );
+        return;
+    }
+    let mut values = values;
+    for i in first_row(chunks.start)..first_row(chunks.end) {
+        let range = p.row(i);
+        let (row, rest) = values.split_at_mut(range.len());
+        f(i, &p.cols[range], row);
+        values = rest;
+    }
+}
+
 /// A symmetric matrix of 3×3 blocks on a [`BlockPattern`], full pattern, f64.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BlockCsr {
@@ -130,25 +160,8 @@ impl BlockCsr {
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over fixed row
     /// chunks (rows are disjoint slices of the values, so no synchronisation is needed).
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Mat3]) + Sync) {
-        let p = &self.pattern;
-        let n = p.rows();
-        let mut chunks: Vec<(usize, &mut [Mat3])> = Vec::with_capacity(n.div_ceil(ROW_CHUNK));
-        let mut rest: &mut [Mat3] = &mut self.values;
-        for start in (0..n).step_by(ROW_CHUNK) {
-            let end = (start + ROW_CHUNK).min(n);
-            let len = p.row_start[end] as usize - p.row_start[start] as usize;
-            let (head, tail) = rest.split_at_mut(len);
-            chunks.push((start, head));
-            rest = tail;
-        }
-        chunks.into_par_iter().for_each(|(start, mut values)| {
-            for i in start..(start + ROW_CHUNK).min(n) {
-                let range = p.row(i);
-                let (row, tail) = values.split_at_mut(range.len());
-                f(i, &p.cols[range], row);
-                values = tail;
-            }
-        });
+        let chunks = self.pattern.rows().div_ceil(ROW_CHUNK);
+        rows_in_chunks(&self.pattern, 0..chunks, &mut self.values, &f);
     }
 
     /// Project out constrained DOFs: for every component with `free = 0`, zero its row and

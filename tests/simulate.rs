@@ -1091,3 +1091,204 @@ fn a_body_too_soft_for_its_weight_is_warned_about() {
             .is_empty()
     );
 }
+
+/// Run the Gmsh beam (physical groups for the clamp and the load, a vertex-list constraint,
+/// initial positions from a file) under one vertex order for 3 frames into `dir`.
+fn run_gmsh_beam_ordered(order: &str, dir: &Path, positions: &Path, pinned: usize) -> Simulation {
+    let text = format!(
+        r#"
+gravity = [0.0, -9.81, 0.0]
+[mesh]
+file = "scenes/meshes/beam.msh"
+reorder = "{order}"
+[material]
+youngs_modulus = 5.0e5
+[[fixed]]
+region = {{ physical = "clamp" }}
+[[fixed]]
+region = {{ vertices = [{pinned}] }}
+components = ["z"]
+[[load]]
+region = {{ physical = "tip" }}
+traction = [0.0, 0.0, -4000.0]
+[initial]
+positions = "{}"
+[solver]
+frames = 3
+rayleigh_stiffness = 0.02
+newton_tolerance = 1e-10
+"#,
+        positions.display()
+    );
+    let mut sim = Simulation::from_scene(&scene(&text)).unwrap();
+    let mut recorder = Recorder::create(dir, &sim.body, true).unwrap();
+    recorder.write_frame(&sim, None).unwrap();
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        recorder.write_frame(&sim, Some(&stats)).unwrap();
+    }
+    sim
+}
+
+#[test]
+fn vertex_reordering_is_invisible_in_the_output() {
+    // The simulation renumbers its mesh for locality; frames must still list vertices and tets
+    // in the file's order, with the file's groups, vertex lists and initial positions meaning
+    // what they meant. Frame 0 is the same bytes under every order (per-tet values do not depend
+    // on numbering); later frames agree to the Newton tolerance (sums run in another order).
+    let tmp = tempfile::tempdir().unwrap();
+    let mesh = tetsim::io::read_mesh(Path::new("scenes/meshes/beam.msh"))
+        .unwrap()
+        .mesh;
+    // Pin one tip vertex (the load pushes the tip in −z) in z by its file index.
+    let tips: Vec<usize> = (0..mesh.positions.len())
+        .filter(|&i| mesh.positions[i].x > 3.999)
+        .collect();
+    let (pinned, other) = (tips[0], tips[tips.len() / 2]);
+    // A slightly stretched start, so the frames move from the first step on.
+    let positions = tmp.path().join("start.txt");
+    let text: String = mesh
+        .positions
+        .iter()
+        .map(|p| format!("{} {} {}\n", 1.01 * p.x, p.y, p.z))
+        .collect();
+    std::fs::write(&positions, text).unwrap();
+    let read = |order: &str, name: &str| {
+        tetsim::io::read_mesh(&tmp.path().join(order).join(name))
+            .unwrap()
+            .mesh
+    };
+    let reference = run_gmsh_beam_ordered("none", &tmp.path().join("none"), &positions, pinned);
+    assert!(reference.renumbering().is_none());
+    let moved = read("none", "frame_0003.vtu").positions[other].z - mesh.positions[other].z;
+    assert!(moved < -1e-4, "the tip moves under the load: {moved}");
+    for order in ["rcm", "morton", "random"] {
+        let sim = run_gmsh_beam_ordered(order, &tmp.path().join(order), &positions, pinned);
+        let r = sim.renumbering().expect("renumbered");
+        assert!(r.vertex_old.iter().enumerate().any(|(n, &o)| n != o));
+        for name in ["frame_0000.vtu", "surface_0000.obj"] {
+            let bytes = |o: &str| std::fs::read(tmp.path().join(o).join(name)).unwrap();
+            assert!(bytes(order) == bytes("none"), "{order}: {name} differs");
+        }
+        let (a, b) = (
+            read("none", "frame_0003.vtu"),
+            read(order, "frame_0003.vtu"),
+        );
+        assert_eq!(a.tets, b.tets, "{order}: connectivity in file order");
+        let scale = 4.0; // the beam's length, m
+        for (p, q) in a.positions.iter().zip(&b.positions) {
+            assert!((p - q).norm() < 1e-7 * scale, "{order}: {p} vs {q}");
+        }
+        // The vertex-list constraint held the file's vertex in z.
+        assert_eq!(b.positions[pinned].z, mesh.positions[pinned].z, "{order}");
+    }
+}
+
+/// Counts heap allocations made on threads that opted in (the test's own thread and the workers
+/// of its private rayon pool), so that tests running beside it do not disturb the count.
+mod allocations {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    pub struct Counting;
+
+    pub static COUNT: AtomicUsize = AtomicUsize::new(0);
+
+    thread_local! {
+        pub static COUNTED: Cell<bool> = const { Cell::new(false) };
+    }
+
+    fn note() {
+        // `try_with`: thread-locals may be gone while a thread exits.
+        if COUNTED.try_with(Cell::get).unwrap_or(false) {
+            COUNT.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            note();
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+            note();
+            unsafe { System.alloc_zeroed(layout) }
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            note();
+            unsafe { System.realloc(ptr, layout, new_size) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            unsafe { System.dealloc(ptr, layout) }
+        }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: allocations::Counting = allocations::Counting;
+
+#[test]
+fn newton_and_cg_loops_do_not_allocate() {
+    use std::sync::atomic::Ordering;
+    // A frame allocates a few small things once (its statistics, the Newton residual history,
+    // min J); nothing per Newton iteration, CG iteration or tet. The same frames solved to a
+    // loose and to a tight Newton tolerance take different numbers of Newton and CG iterations
+    // and must allocate exactly as often.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .start_handler(|_| allocations::COUNTED.with(|c| c.set(true)))
+        .build()
+        .unwrap();
+    for preconditioner in ["amg", "jacobi", "block-jacobi"] {
+        let mut counts = Vec::new();
+        for tolerance in [1e-2, 1e-8] {
+            let text = format!(
+                "{STIFF_BEAM_MESH}\n[solver]\nframes = 6\nrayleigh_stiffness = 0.01\nnewton_tolerance = {tolerance}\npreconditioner = \"{preconditioner}\"\n"
+            );
+            let mut sim = Simulation::from_scene(&scene(&text)).unwrap();
+            let (mut newton, mut cg, mut allocated) = (0, 0, Vec::new());
+            pool.install(|| {
+                // Warm-up: the assembled path builds its pattern and hierarchy in the first
+                // frames.
+                for _ in 0..3 {
+                    sim.step().unwrap();
+                }
+                allocations::COUNTED.with(|c| c.set(true));
+                while !sim.is_finished() {
+                    let before = allocations::COUNT.load(Ordering::Relaxed);
+                    let stats = sim.step().unwrap();
+                    allocated.push(allocations::COUNT.load(Ordering::Relaxed) - before);
+                    newton += stats.newton_iterations;
+                    cg += stats.cg_iterations;
+                }
+                allocations::COUNTED.with(|c| c.set(false));
+            });
+            println!(
+                "{preconditioner}, Newton tolerance {tolerance:.0e}: {newton} Newton and {cg} CG iterations in 3 frames, allocations per frame {allocated:?}"
+            );
+            counts.push((newton, cg, allocated));
+        }
+        let (loose, tight) = (&counts[0], &counts[1]);
+        assert!(tight.0 >= loose.0 + 3 && tight.1 > loose.1, "{counts:?}");
+        assert_eq!(
+            loose.2, tight.2,
+            "{preconditioner}: allocations depend on iterations"
+        );
+        assert!(
+            loose.2.iter().all(|&a| a <= 16),
+            "{preconditioner}: {:?}",
+            loose.2
+        );
+    }
+}
+
+/// A 12×3×3 beam clamped at x = 0, drooping under gravity: frames of several Newton iterations.
+const STIFF_BEAM_MESH: &str = r#"
+[mesh]
+generator = { box = { min = [0, 0, 0], max = [4, 1, 1], cells = [12, 3, 3] } }
+[material]
+youngs_modulus = 1e6
+[[fixed]]
+region = { box = { min = [-0.01, -1, -1], max = [0.01, 2, 2] } }
+"#;

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use tetsim::bench::{self, BenchParams};
+use tetsim::mesh::ordering::VertexOrder;
 
 /// Arguments of `tetsim bench`.
 #[derive(Debug, clap::Args)]
@@ -20,6 +21,10 @@ pub struct BenchArgs {
     /// Extra `[solver]` settings, e.g. --solver 'preconditioner = "block-jacobi"'.
     #[arg(long, default_value = "")]
     pub solver: String,
+    /// Internal vertex order: rcm (default), morton, none (the generator's x-fastest order) or
+    /// random (a shuffled mesh: what a badly numbered input costs).
+    #[arg(long, default_value = "rcm", value_parser = parse_order)]
+    pub reorder: VertexOrder,
     /// Print JSON instead of the table (to stdout), for comparing runs.
     #[arg(long)]
     pub json: bool,
@@ -38,6 +43,7 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         frames: args.frames,
         repeats: args.repeats,
         solver_overrides: args.solver,
+        reorder: args.reorder,
     };
     let report = bench::run(&params, |line| {
         if !quiet {
@@ -54,4 +60,9 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         print!("{}", report.table());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn parse_order(name: &str) -> Result<VertexOrder, String> {
+    VertexOrder::from_name(name)
+        .ok_or_else(|| format!("{name:?}: expected rcm, morton, none or random"))
 }

@@ -6,6 +6,7 @@
 
 pub mod doctor;
 pub mod generate;
+pub mod ordering;
 
 use crate::error::MeshProblem;
 use crate::math::{Mat3, Vec3};
