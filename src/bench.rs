@@ -90,6 +90,26 @@ pub struct SizeReport {
     pub speedup_vs_vegafem: Option<f64>,
     /// Whether every frame converged.
     pub all_converged: bool,
+    /// The sparse Cholesky's figures, when it is the preconditioner (feature `direct`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub factor: Option<FactorReport>,
+}
+
+/// What the sparse Cholesky preconditioner cost in the first run of a size.
+#[derive(Clone, Debug, Serialize)]
+pub struct FactorReport {
+    /// Numeric factorizations per frame.
+    pub factorizations_per_frame: f64,
+    /// Factorizations that failed (A not positive definite).
+    pub failures: usize,
+    /// Mean seconds per numeric factorization.
+    pub seconds_per_factorization: f64,
+    /// Seconds of the one symbolic analysis.
+    pub symbolic_seconds: f64,
+    /// Entries of A's upper triangle.
+    pub a_nonzeros: usize,
+    /// Entries of the factor L.
+    pub l_nonzeros: usize,
 }
 
 /// The whole bench.
@@ -215,6 +235,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         let mut all_converged = true;
         let mut report_mem = 0.0;
         let (mut tets, mut vertices, mut operator_bytes_per_tet) = (0, 0, 0.0);
+        let mut factor = None;
         for repeat in 0..params.repeats {
             let mut sim = Simulation::from_scene(&scene)?;
             tets = sim.body.tet_count();
@@ -236,6 +257,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             if repeat == 0 {
                 wall = seconds;
                 report_mem = resident_mb();
+                factor = factor_report(&sim, params.frames);
             }
             per_frame.push(seconds / params.frames as f64);
             progress(&format!(
@@ -275,6 +297,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             resident_mb: report_mem,
             speedup_vs_vegafem: vega,
             all_converged,
+            factor,
         });
     }
     Ok(BenchReport {
@@ -285,6 +308,26 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         solver_overrides: params.solver_overrides.clone(),
         reorder: params.reorder,
     })
+}
+
+/// The Cholesky figures of a finished run, if it used the Cholesky preconditioner.
+fn factor_report(sim: &Simulation, frames: usize) -> Option<FactorReport> {
+    #[cfg(feature = "direct")]
+    {
+        sim.cholesky_info().map(|info| FactorReport {
+            factorizations_per_frame: info.factorizations as f64 / frames as f64,
+            failures: info.failures,
+            seconds_per_factorization: info.factor_seconds / info.factorizations.max(1) as f64,
+            symbolic_seconds: info.symbolic_seconds,
+            a_nonzeros: info.a_nonzeros,
+            l_nonzeros: info.l_nonzeros,
+        })
+    }
+    #[cfg(not(feature = "direct"))]
+    {
+        let _ = (sim, frames);
+        None
+    }
 }
 
 impl BenchReport {
@@ -326,6 +369,18 @@ impl BenchReport {
                 r.speedup_vs_vegafem.map_or("-".to_string(), |x| format!("{x:.2}")),
                 if r.all_converged { "" } else { "  (some frames did not converge)" }
             ));
+            if let Some(f) = &r.factor {
+                s.push_str(&format!(
+                    "     Cholesky: {:.2} factorizations/frame, {:.3} s each, symbolic {:.3} s, nnz(A upper) {}, nnz(L) {} ({:.1}×), {} failed\n",
+                    f.factorizations_per_frame,
+                    f.seconds_per_factorization,
+                    f.symbolic_seconds,
+                    f.a_nonzeros,
+                    f.l_nonzeros,
+                    f.l_nonzeros as f64 / f.a_nonzeros.max(1) as f64,
+                    f.failures
+                ));
+            }
         }
         s
     }

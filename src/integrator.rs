@@ -80,6 +80,10 @@ pub enum PreconditionerKind {
     /// per CG iteration; CG then multiplies with the assembled A too.
     #[default]
     Amg,
+    /// Sparse Cholesky of the assembled A ([`crate::direct`], feature `direct`), kept across
+    /// Newton iterations while CG converges fast (see `cholesky_reuse`).
+    #[cfg(feature = "direct")]
+    Cholesky,
 }
 
 /// Every solver setting, with its unit and default (built by the scene from `[solver]`).
@@ -124,6 +128,11 @@ pub struct SolverParams {
     /// Newton and CG iteration counts are unchanged on the issue-8 beams. Default false (see
     /// the README's speed section for the measurement).
     pub f32_matrix: bool,
+    /// With the Cholesky preconditioner: keep the factor across Newton iterations and frames and
+    /// refactor when CG needs more than [`CHOLESKY_REFACTOR_RATE`] iterations per decade (or the
+    /// factorization failed, or the constrained DOFs changed); false factors at every Newton
+    /// iterate. Default true.
+    pub cholesky_reuse: bool,
     /// Failure policy. Default Retry.
     pub on_failure: OnFailure,
     /// How many times Retry may halve the step. Default 4 (16× substeps).
@@ -148,6 +157,7 @@ impl Default for SolverParams {
             line_search: true,
             inexact_newton: true,
             f32_matrix: false,
+            cholesky_reuse: true,
             on_failure: OnFailure::Retry,
             max_step_cuts: 4,
         }
@@ -282,8 +292,43 @@ impl LinearOperator for UpperMatrix<'_> {
 /// 0.76 s never refreshing: a refresh costs about two solves' worth of CG iterations.
 const AMG_REFRESH_GROWTH: f64 = 1.5;
 
-/// The assembled path: `A = k·K + m·M` as a block matrix (constrained), the AMG hierarchy on it,
-/// and when to refresh the hierarchy's numbers. CG multiplies with the assembled f64 matrix: on
+/// A kept Cholesky factor is refreshed once CG needed more than this many iterations per decade
+/// of residual reduction (a fresh factor takes one iteration for the whole solve). Measured on
+/// the bench cantilever (s/frame, 30 frames) for thresholds 1, 2, 4, 8: 0.071, 0.058, 0.065,
+/// 0.070 at 5,184 tets and 1.48, 1.04, 1.18, 1.71 at 41,472 tets (0.8, 0.27, 0.13, 0.07
+/// factorizations per frame); never refactoring leaves CG at 8.7 iterations per Newton iteration
+/// and 0.098 s/frame at 5,184 tets. Unlike AMG's rule this one is absolute: a fresh factor's rate
+/// (≈ 0.1) is no baseline to grow from.
+#[cfg(feature = "direct")]
+pub const CHOLESKY_REFACTOR_RATE: f64 = 2.0;
+
+/// The preconditioner of the assembled path.
+enum OnAssembled {
+    /// Built at the first solve, refreshed on the AMG rule.
+    Amg(Option<Box<Amg>>),
+    /// Factored at the first solve, refactored on the Cholesky rule.
+    #[cfg(feature = "direct")]
+    Cholesky {
+        factor: Box<crate::direct::Cholesky>,
+        reuse: bool,
+        /// The free mask the factor was made with.
+        free: Vec<Vec3>,
+    },
+}
+
+impl OnAssembled {
+    /// The preconditioner prepared last.
+    fn as_dyn(&mut self) -> &mut dyn Preconditioner {
+        match self {
+            OnAssembled::Amg(amg) => &mut **amg.as_mut().expect("prepared before use"),
+            #[cfg(feature = "direct")]
+            OnAssembled::Cholesky { factor, .. } => &mut **factor,
+        }
+    }
+}
+
+/// The assembled path: `A = k·K + m·M` as a block matrix (constrained), the AMG hierarchy or the
+/// Cholesky factor on it, and when to refresh them. CG multiplies with the assembled f64 matrix: on
 /// the 5,184-tet cantilever it ran the frame in 0.057 s against 0.103 s with the matrix-free
 /// product (same CG iterations).
 struct Assembled {
@@ -291,7 +336,7 @@ struct Assembled {
     /// The f32 upper triangle CG multiplies with when `cg_f32` is set.
     upper: Option<UpperF32>,
     work: AssemblyWork,
-    amg: Option<Amg>,
+    precond: OnAssembled,
     params: AmgParams,
     /// CG iterations per decade of residual reduction: of the first solve after the last build
     /// or refresh, and of the last solve.
@@ -300,20 +345,30 @@ struct Assembled {
 }
 
 impl Assembled {
-    fn new(body: &ElasticBody, params: &AmgParams, f32_matrix: bool) -> Self {
+    fn new(body: &ElasticBody, params: &SolverParams) -> Self {
+        let precond = match params.preconditioner {
+            #[cfg(feature = "direct")]
+            PreconditionerKind::Cholesky => OnAssembled::Cholesky {
+                factor: Box::default(),
+                reuse: params.cholesky_reuse,
+                free: Vec::new(),
+            },
+            _ => OnAssembled::Amg(None),
+        };
         Assembled {
             a: BlockCsr::zeros(body.stiffness_pattern()),
-            upper: f32_matrix.then(UpperF32::default),
+            upper: params.f32_matrix.then(UpperF32::default),
             work: AssemblyWork::default(),
-            amg: None,
-            params: params.clone(),
+            precond,
+            params: params.amg.clone(),
             baseline_rate: None,
             last_rate: 0.0,
         }
     }
 
     /// Assemble and constrain A at the current linearization, then build the AMG (first call;
-    /// near-nullspace from the rest positions) or refresh it (when CG iterations grew).
+    /// near-nullspace from the rest positions) or refresh it (when CG iterations grew), or
+    /// (re)factor A.
     fn prepare(
         &mut self,
         body: &ElasticBody,
@@ -333,22 +388,48 @@ impl Assembled {
         let stale = self
             .baseline_rate
             .is_some_and(|b| self.last_rate > AMG_REFRESH_GROWTH * b + 1.0);
-        match &mut self.amg {
-            None => self.amg = Some(Amg::new(&self.a, &body.mesh.positions, free, &self.params)),
-            Some(amg) if stale => {
+        match &mut self.precond {
+            OnAssembled::Amg(amg @ None) => {
+                *amg = Some(Box::new(Amg::new(
+                    &self.a,
+                    &body.mesh.positions,
+                    free,
+                    &self.params,
+                )))
+            }
+            OnAssembled::Amg(Some(amg)) if stale => {
                 amg.refresh(&self.a);
                 self.baseline_rate = None;
             }
-            Some(_) => {}
+            OnAssembled::Amg(Some(_)) => {}
+            #[cfg(feature = "direct")]
+            OnAssembled::Cholesky {
+                factor,
+                reuse,
+                free: factored_free,
+            } => {
+                if !*reuse
+                    || !factor.is_factored()
+                    || self.last_rate > CHOLESKY_REFACTOR_RATE
+                    || factored_free.as_slice() != free
+                {
+                    factored_free.clear();
+                    factored_free.extend_from_slice(free);
+                    self.last_rate = 0.0;
+                    if let Err(e) = factor.factorize(&self.a) {
+                        log::debug!("{e}; block Jacobi for this solve");
+                    }
+                }
+            }
         }
         log::debug!(
-            "assembly {:.4} s, AMG {:.4} s",
+            "assembly {:.4} s, preconditioner {:.4} s",
             assembled.duration_since(started).as_secs_f64(),
             assembled.elapsed().as_secs_f64()
         );
     }
 
-    /// Note a CG solve's iterations per decade of reduction (for the refresh rule).
+    /// Note a CG solve's iterations per decade of reduction (for the refresh rules).
     fn record(&mut self, info: &CgInfo) {
         let decades = (-info.relative_residual.max(1e-300).log10()).max(0.25);
         self.last_rate = info.iterations as f64 / decades;
@@ -361,7 +442,8 @@ enum Precond {
     Identity(cg::Identity),
     Jacobi(Jacobi),
     BlockJacobi(BlockJacobi),
-    Amg(Box<Assembled>),
+    /// AMG or Cholesky on the assembled A.
+    Assembled(Box<Assembled>),
 }
 
 impl Precond {
@@ -370,7 +452,7 @@ impl Precond {
             Precond::Identity(p) => p,
             Precond::Jacobi(p) => p,
             Precond::BlockJacobi(p) => p,
-            Precond::Amg(p) => p.amg.as_mut().expect("prepared before use"),
+            Precond::Assembled(p) => p.precond.as_dyn(),
         }
     }
 }
@@ -415,11 +497,11 @@ impl Newton {
             PreconditionerKind::Identity => Precond::Identity(cg::Identity),
             PreconditionerKind::Jacobi => Precond::Jacobi(Jacobi::default()),
             PreconditionerKind::BlockJacobi => Precond::BlockJacobi(BlockJacobi::default()),
-            PreconditionerKind::Amg => Precond::Amg(Box::new(Assembled::new(
-                body,
-                &params.amg,
-                params.f32_matrix,
-            ))),
+            PreconditionerKind::Amg => Precond::Assembled(Box::new(Assembled::new(body, params))),
+            #[cfg(feature = "direct")]
+            PreconditionerKind::Cholesky => {
+                Precond::Assembled(Box::new(Assembled::new(body, params)))
+            }
         };
         Newton {
             lin: Linearization::new(body, params.definiteness),
@@ -448,27 +530,45 @@ impl Newton {
     /// stored entry plus its index share.
     pub fn bytes_per_cg_iteration(&self, body: &ElasticBody) -> f64 {
         match &self.precond {
-            Precond::Amg(assembled) => {
+            Precond::Assembled(assembled) => {
                 let a = &assembled.a;
                 let matrix = match &assembled.upper {
                     Some(upper) => upper.matrix_bytes() as f64,
                     None => (a.pattern.blocks() * (72 + 4) + 4 * (a.rows() + 1)) as f64,
                 };
-                let vcycle = assembled.amg.as_ref().map_or(0.0, |amg| {
-                    let reads = (2 * assembled.params.smoother_degree + 1) as f64;
-                    amg.info()
-                        .levels
-                        .iter()
-                        .map(|l| {
-                            reads
-                                * l.nonzeros as f64
-                                * (8.0 + 4.0 / (l.block_size * l.block_size) as f64)
-                        })
-                        .sum::<f64>()
-                });
-                matrix + vcycle
+                let preconditioner = match &assembled.precond {
+                    OnAssembled::Amg(amg) => amg.as_ref().map_or(0.0, |amg| {
+                        let reads = (2 * assembled.params.smoother_degree + 1) as f64;
+                        amg.info()
+                            .levels
+                            .iter()
+                            .map(|l| {
+                                reads
+                                    * l.nonzeros as f64
+                                    * (8.0 + 4.0 / (l.block_size * l.block_size) as f64)
+                            })
+                            .sum::<f64>()
+                    }),
+                    // L read twice (forward and backward), 8 bytes an entry; its supernodal
+                    // row indices are a small share and left out.
+                    #[cfg(feature = "direct")]
+                    OnAssembled::Cholesky { factor, .. } => 16.0 * factor.info().l_nonzeros as f64,
+                };
+                matrix + preconditioner
             }
             _ => body.matrix_free_bytes_per_product(),
+        }
+    }
+
+    /// The sparse Cholesky's costs and counts, when it is the preconditioner.
+    #[cfg(feature = "direct")]
+    pub fn cholesky_info(&self) -> Option<&crate::direct::CholeskyInfo> {
+        match &self.precond {
+            Precond::Assembled(assembled) => match &assembled.precond {
+                OnAssembled::Cholesky { factor, .. } => Some(factor.info()),
+                _ => None,
+            },
+            _ => None,
         }
     }
 
@@ -639,19 +739,23 @@ impl Newton {
             Precond::Identity(_) => {}
             Precond::Jacobi(p) => p.set_from_blocks(&self.blocks),
             Precond::BlockJacobi(p) => p.set_from_blocks(&self.blocks),
-            Precond::Amg(assembled) => assembled.prepare(body, &self.lin, k_scale, m_scale, free),
+            Precond::Assembled(assembled) => {
+                assembled.prepare(body, &self.lin, k_scale, m_scale, free)
+            }
         }
         self.dx.iter_mut().for_each(|d| *d = Vec3::zeros());
         let cg_started = Instant::now();
         self.timings.preconditioner += cg_started.duration_since(started).as_secs_f64();
         let result = match &mut self.precond {
-            Precond::Amg(assembled) => {
-                let Assembled { a, amg, upper, .. } = &mut **assembled;
-                let amg = amg.as_mut().expect("prepared above");
+            Precond::Assembled(assembled) => {
+                let Assembled {
+                    a, precond, upper, ..
+                } = &mut **assembled;
+                let m = precond.as_dyn();
                 match upper {
                     Some(upper) => conjugate_gradient(
                         &mut UpperMatrix(upper),
-                        amg,
+                        m,
                         &self.rhs,
                         &mut self.dx,
                         free,
@@ -660,7 +764,7 @@ impl Newton {
                     ),
                     None => conjugate_gradient(
                         &mut AssembledMatrix(a),
-                        amg,
+                        m,
                         &self.rhs,
                         &mut self.dx,
                         free,
@@ -685,7 +789,7 @@ impl Newton {
             ),
         };
         self.timings.cg += cg_started.elapsed().as_secs_f64();
-        if let Precond::Amg(assembled) = &mut self.precond {
+        if let Precond::Assembled(assembled) = &mut self.precond {
             assembled.record(match &result {
                 Ok(i) => i,
                 Err(

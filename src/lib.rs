@@ -33,6 +33,8 @@
 //! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.
 //! - [`cg`]: preconditioned conjugate gradient on any linear operator.
 //! - [`amg`]: smoothed-aggregation algebraic multigrid, a preconditioner for the assembled system.
+//! - `direct` (cargo feature `direct`): faer's sparse Cholesky of the assembled system, the
+//!   other preconditioner for it.
 //! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
 //! - [`audit`]: the energy audit of every step (steps.csv, run summary).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
@@ -57,6 +59,8 @@ pub mod boundary;
 pub mod cg;
 pub mod check;
 pub mod diagnose;
+#[cfg(feature = "direct")]
+pub mod direct;
 pub mod elastic;
 pub mod error;
 pub mod integrator;

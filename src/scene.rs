@@ -300,7 +300,8 @@ pub struct SolverSpec {
     pub cg_max_iterations: usize,
     /// "teran" (default; alias "projected"), "analytic", "abs" or "none" (alias "exact").
     pub definiteness: Definiteness,
-    /// "amg" (default), "jacobi", "block-jacobi" or "none".
+    /// "amg" (default), "jacobi", "block-jacobi", "none", or "cholesky" (built with
+    /// `--features direct`).
     pub preconditioner: PreconditionerName,
     /// Backtracking line search. Default true.
     pub line_search: bool,
@@ -308,6 +309,9 @@ pub struct SolverSpec {
     pub inexact_newton: bool,
     /// Assembled matrix CG multiplies with (AMG path): false f64 full, true f32 upper triangle.
     pub f32_matrix: bool,
+    /// "cholesky": keep the factor while CG converges fast (default true) or factor at every
+    /// Newton iterate (false).
+    pub cholesky_reuse: bool,
     /// "retry" (default), "continue" or "stop".
     pub on_failure: OnFailureName,
     /// Step halvings allowed by "retry". Default 4.
@@ -333,6 +337,7 @@ impl Default for SolverSpec {
             line_search: p.line_search,
             inexact_newton: p.inexact_newton,
             f32_matrix: p.f32_matrix,
+            cholesky_reuse: p.cholesky_reuse,
             on_failure: OnFailureName::Retry,
             max_step_cuts: p.max_step_cuts,
         }
@@ -363,6 +368,9 @@ pub enum PreconditionerName {
     /// Smoothed-aggregation algebraic multigrid on the assembled system.
     #[default]
     Amg,
+    /// Sparse Cholesky of the assembled system (only in builds with the `direct` feature; the
+    /// scene is rejected otherwise).
+    Cholesky,
 }
 
 /// Scene names of the failure policies.
@@ -561,6 +569,15 @@ impl Scene {
         if s.frames == 0 {
             return fail("solver", "frames", "must be at least 1".into());
         }
+        if s.preconditioner == PreconditionerName::Cholesky && !cfg!(feature = "direct") {
+            return fail(
+                "solver",
+                "preconditioner",
+                "\"cholesky\" needs the sparse direct solver, which this tetsim was built \
+                 without: rebuild with `cargo build --release --features direct`"
+                    .into(),
+            );
+        }
         let o = &self.output;
         if let Some(Err(e)) =
             (o.field != "none").then(|| o.field.parse::<crate::render::FieldKind>())
@@ -680,11 +697,20 @@ impl Scene {
                 PreconditionerName::Jacobi => PreconditionerKind::Jacobi,
                 PreconditionerName::None => PreconditionerKind::Identity,
                 PreconditionerName::Amg => PreconditionerKind::Amg,
+                #[cfg(feature = "direct")]
+                PreconditionerName::Cholesky => PreconditionerKind::Cholesky,
+                // `validate` rejects it; only a scene changed in code after loading gets here.
+                #[cfg(not(feature = "direct"))]
+                PreconditionerName::Cholesky => {
+                    log::warn!("preconditioner = \"cholesky\" needs --features direct; using amg");
+                    PreconditionerKind::Amg
+                }
             },
             amg: crate::amg::AmgParams::default(),
             line_search: s.line_search,
             inexact_newton: s.inexact_newton,
             f32_matrix: s.f32_matrix,
+            cholesky_reuse: s.cholesky_reuse,
             on_failure: match s.on_failure {
                 OnFailureName::Retry => OnFailure::Retry,
                 OnFailureName::Continue => OnFailure::Continue,

@@ -171,6 +171,13 @@ impl Simulation {
         self.newton.bytes_per_cg_iteration(&self.body)
     }
 
+    /// The sparse Cholesky preconditioner's costs and counts (factorizations, failures, fill),
+    /// when the scene uses it.
+    #[cfg(feature = "direct")]
+    pub fn cholesky_info(&self) -> Option<&crate::direct::CholeskyInfo> {
+        self.newton.cholesky_info()
+    }
+
     /// Kinetic energy ½ vᵀMv, J.
     pub fn kinetic_energy(&self) -> f64 {
         0.5 * self

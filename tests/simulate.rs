@@ -626,6 +626,197 @@ fn amg_same_bits_on_one_and_two_threads() {
     assert_eq!(run(1), run(2));
 }
 
+/// The default cantilever run with `extra` solver keys for `frames` frames: final positions, the
+/// frame rows (times zeroed) and the Cholesky figures when it used the Cholesky.
+#[cfg(feature = "direct")]
+fn cantilever_run(
+    extra: &str,
+    frames: usize,
+) -> (
+    Vec<Vec3>,
+    Vec<tetsim::integrator::StepStats>,
+    Option<tetsim::direct::CholeskyInfo>,
+) {
+    let text = Scene::default()
+        .source()
+        .replace("[solver]", &format!("[solver]\n{extra}"));
+    let mut scene = scene(&text);
+    scene.solver.frames = frames;
+    let mut sim = Simulation::from_scene(&scene).unwrap();
+    let mut rows = Vec::new();
+    while !sim.is_finished() {
+        let mut s = sim.step().unwrap();
+        assert!(s.converged, "{extra}: frame {}", s.frame);
+        s.wall_seconds = 0.0;
+        s.timings = Default::default();
+        rows.push(s);
+    }
+    let info = sim.cholesky_info().cloned();
+    (sim.state.x, rows, info)
+}
+
+/// The sparse Cholesky preconditioner gives the default's answer within the Newton tolerance;
+/// factored at every Newton iterate, CG needs one iteration (at most two) per solve; kept across
+/// iterates, it factors less often and still agrees.
+#[cfg(feature = "direct")]
+#[test]
+fn cholesky_simulation_converges_like_the_default() {
+    let (x_amg, amg, _) = cantilever_run("", 6);
+    let (x_fresh, fresh, info) =
+        cantilever_run("preconditioner = \"cholesky\"\ncholesky_reuse = false", 6);
+    let info = info.expect("the Cholesky ran");
+    let newton: usize = fresh.iter().map(|r| r.newton_iterations).sum();
+    assert_eq!(info.failures, 0);
+    assert_eq!(info.factorizations, newton, "{info:?}");
+    for (a, c) in amg.iter().zip(&fresh) {
+        assert!(
+            c.newton_iterations.abs_diff(a.newton_iterations) <= 1,
+            "frame {}: {} vs {} Newton iterations",
+            a.frame,
+            c.newton_iterations,
+            a.newton_iterations
+        );
+        assert!(
+            c.cg_iterations <= 2 * c.newton_iterations,
+            "frame {}: {} CG iterations for {} Newton iterations",
+            c.frame,
+            c.cg_iterations,
+            c.newton_iterations
+        );
+    }
+    let (x_kept, _, kept) = cantilever_run("preconditioner = \"cholesky\"", 6);
+    let kept = kept.unwrap();
+    assert!(kept.factorizations < newton, "{kept:?}");
+    // The beam droops about 0.3 m in these frames; the Newton tolerance (1e-4 relative) leaves
+    // differences of a few µm between solvers.
+    for (name, x) in [("fresh", &x_fresh), ("kept", &x_kept)] {
+        let gap = x_amg
+            .iter()
+            .zip(x)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        assert!(gap < 1e-4, "{name}: positions differ by {gap} m");
+    }
+}
+
+/// The Cholesky path through the whole stack is deterministic too (faer runs sequentially).
+#[cfg(feature = "direct")]
+#[test]
+fn cholesky_same_bits_on_one_and_two_threads() {
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| cantilever_run("preconditioner = \"cholesky\"", 3))
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!((one.0, one.1), (two.0, two.1));
+}
+
+/// Counts heap allocations per thread, to show that applying the Cholesky allocates nothing.
+#[cfg(feature = "direct")]
+mod counting {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    pub struct Counting;
+
+    thread_local! {
+        pub static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+    }
+
+    // SAFETY: forwards to the system allocator; the counter is a const-initialised thread-local
+    // without a destructor, so touching it never allocates or fails.
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            ALLOCATIONS.with(|c| c.set(c.get() + 1));
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            unsafe { System.dealloc(ptr, layout) }
+        }
+    }
+}
+
+#[cfg(feature = "direct")]
+#[global_allocator]
+static ALLOCATOR: counting::Counting = counting::Counting;
+
+/// Every CG iteration applies the preconditioner: with the Cholesky that is two triangular solves
+/// in buffers made at the analysis, so it allocates nothing, and it solves the assembled system.
+#[cfg(feature = "direct")]
+#[test]
+fn cholesky_apply_allocates_nothing_and_solves_the_system() {
+    use tetsim::cg::Preconditioner;
+    use tetsim::direct::Cholesky;
+    use tetsim::elastic::AssemblyWork;
+    use tetsim::sparse::BlockCsr;
+
+    let sim = Simulation::from_scene(&Scene::default()).unwrap();
+    let body = &sim.body;
+    let n = body.vertex_count();
+    // A bent state, so that the tangent is not the rest one.
+    let x: Vec<Vec3> = body
+        .mesh
+        .positions
+        .iter()
+        .map(|p| p + Vec3::new(0.0, -0.05 * p.x * p.x, 0.01 * p.x * p.y))
+        .collect();
+    let mut lin = tetsim::Linearization::new(body, Definiteness::Projected);
+    let mut forces = vec![Vec3::zeros(); n];
+    body.linearize_into(&x, &mut lin, &mut forces);
+    let mut a = BlockCsr::zeros(body.stiffness_pattern());
+    body.assemble_system(&lin, 1.3, 900.0, &mut a, &mut AssemblyWork::default());
+    a.constrain(sim.free_mask());
+    let mut chol = Cholesky::new();
+    chol.factorize(&a).unwrap();
+    let b: Vec<Vec3> = (0..n)
+        .map(|i| Vec3::new((i as f64).sin(), 1.0, (0.1 * i as f64).cos()))
+        .collect();
+    let mut z = vec![Vec3::zeros(); n];
+    chol.apply(&b, &mut z); // first use may set up thread-local kernel scratch
+    let before = counting::ALLOCATIONS.with(|c| c.get());
+    for _ in 0..5 {
+        chol.apply(&b, &mut z);
+    }
+    let allocations = counting::ALLOCATIONS.with(|c| c.get()) - before;
+    assert_eq!(allocations, 0, "allocations in five applications");
+    let mut az = vec![Vec3::zeros(); n];
+    a.multiply(&z, &mut az);
+    let scale = b.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    let error = az
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (p - q).norm())
+        .fold(0.0, f64::max);
+    assert!(error < 1e-9 * scale, "‖Az − b‖∞ = {error}");
+}
+
+/// Without the `direct` feature, asking for the Cholesky is a scene error at its line that says
+/// how to get it.
+#[cfg(not(feature = "direct"))]
+#[test]
+fn cholesky_without_the_direct_feature_is_a_scene_error() {
+    let text = Scene::default()
+        .source()
+        .replace("[solver]", "[solver]\npreconditioner = \"cholesky\"");
+    let line = 1 + text
+        .lines()
+        .position(|l| l.starts_with("preconditioner"))
+        .unwrap();
+    match Scene::parse(&text, Path::new("beam.toml"), Path::new(".")) {
+        Err(tetsim::Error::Scene {
+            line: l, message, ..
+        }) => {
+            assert_eq!(l, line, "{message}");
+            assert!(message.contains("solver.preconditioner"), "{message}");
+            assert!(message.contains("--features direct"), "{message}");
+        }
+        other => panic!("expected a scene error, got {other:?}"),
+    }
+}
+
 /// One hard-step run's outcome.
 #[derive(Debug)]
 struct HardStep {
