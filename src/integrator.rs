@@ -114,7 +114,9 @@ pub struct SolverParams {
     /// tets, 60 frames) 1,055 CG iterations in all against Jacobi's 8,725 and 1.4 s against 2.7 s
     /// of CPU; 7–10× faster per frame than Jacobi at 41,472 and 192,000 tets (see the README).
     /// Among the matrix-free ones Jacobi beats block Jacobi (122 against 129 CG iterations per
-    /// Newton iteration on the default beam, 272 against 303 at 41,472 tets).
+    /// Newton iteration on the default beam, 272 against 303 at 41,472 tets). The sparse Cholesky
+    /// (feature `direct`, factor kept) ran the bench beam in 0.054 s/frame against AMG's 0.085
+    /// at 5,184 tets but 1.71 against 0.82 at 41,472 tets: AMG stays the default.
     pub preconditioner: PreconditionerKind,
     /// Settings of the AMG preconditioner (used when `preconditioner` is `Amg`).
     pub amg: AmgParams,
