@@ -94,7 +94,8 @@ pub struct MeshSpec {
     #[serde(default)]
     pub force: bool,
     /// Internal vertex and tet numbering for memory locality (output keeps the file's):
-    /// "rcm" (default), "morton", "none", or "random" (the worst case, for benchmarks).
+    /// "auto" (default: a generator's order, RCM for files), "rcm", "morton", "none", or
+    /// "random" (the worst case, for benchmarks).
     #[serde(default)]
     pub reorder: VertexOrder,
 }
@@ -839,7 +840,12 @@ impl Simulation {
     /// Everything a scene describes, ready to step.
     pub fn from_scene(scene: &Scene) -> Result<Simulation> {
         let file_mesh = scene.build_mesh()?;
-        let renumbering = Renumbering::new(&file_mesh, scene.mesh.reorder);
+        let order = match scene.mesh.reorder {
+            // A generator's lattice order is already local (see `mesh::ordering`).
+            VertexOrder::Auto if scene.mesh.generator.is_some() => VertexOrder::None,
+            order => order,
+        };
+        let renumbering = Renumbering::new(&file_mesh, order);
         let mesh = match &renumbering {
             Some(r) => r.apply(&file_mesh),
             None => file_mesh,

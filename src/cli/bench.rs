@@ -21,9 +21,9 @@ pub struct BenchArgs {
     /// Extra `[solver]` settings, e.g. --solver 'preconditioner = "block-jacobi"'.
     #[arg(long, default_value = "")]
     pub solver: String,
-    /// Internal vertex order: rcm (default), morton, none (the generator's x-fastest order) or
-    /// random (a shuffled mesh: what a badly numbered input costs).
-    #[arg(long, default_value = "rcm", value_parser = parse_order)]
+    /// Internal vertex order: auto (default; the generator's x-fastest order), rcm, morton, none
+    /// or random (a shuffled mesh: what a badly numbered input costs).
+    #[arg(long, default_value = "auto", value_parser = parse_order)]
     pub reorder: VertexOrder,
     /// Print JSON instead of the table (to stdout), for comparing runs.
     #[arg(long)]
@@ -64,5 +64,5 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
 
 fn parse_order(name: &str) -> Result<VertexOrder, String> {
     VertexOrder::from_name(name)
-        .ok_or_else(|| format!("{name:?}: expected rcm, morton, none or random"))
+        .ok_or_else(|| format!("{name:?}: expected auto, rcm, morton, none or random"))
 }
