@@ -390,6 +390,13 @@ impl Assembled {
         let stale = self
             .baseline_rate
             .is_some_and(|b| self.last_rate > AMG_REFRESH_GROWTH * b + 1.0);
+        // The hierarchy's numbers only ever come from a projected (positive semi-definite) A:
+        // built or refreshed on the exact tangent of `adaptive`, which may be indefinite, its
+        // Chebyshev smoothers and coarse factor stop being positive definite, and CG on the
+        // projected A that follows broke down at every Newton iterate (a tangled ball, frame 43:
+        // 147 breakdowns and no convergence, against none with the hierarchy kept). The exact A
+        // is preconditioned with the hierarchy of the projected one.
+        let exact = lin.exact_in_use();
         match &mut self.precond {
             OnAssembled::Amg(amg @ None) => {
                 *amg = Some(Box::new(Amg::new(
@@ -399,7 +406,7 @@ impl Assembled {
                     &self.params,
                 )))
             }
-            OnAssembled::Amg(Some(amg)) if stale => {
+            OnAssembled::Amg(Some(amg)) if stale && !exact => {
                 amg.refresh(&self.a);
                 self.baseline_rate = None;
             }
@@ -481,6 +488,9 @@ pub struct Newton {
     cg: CgWorkspace,
     partials: Vec<f64>,
     timings: Timings,
+    /// Whether a failed ‖rhs‖ line search may fall back on the potential (see
+    /// [`Newton::set_last_resort`]).
+    last_resort: bool,
 }
 
 /// Merit and residual of one evaluated iterate.
@@ -517,6 +527,7 @@ impl Newton {
             cg: CgWorkspace::new(n),
             partials: vec![0.0; n.div_ceil(CHUNK).max(1)],
             timings: Timings::default(),
+            last_resort: true,
         }
     }
 
@@ -590,6 +601,13 @@ impl Newton {
     /// is left of the step's equation, N.
     pub fn residual(&self) -> &[Vec3] {
         &self.rhs
+    }
+
+    /// Whether the coming solves are a last attempt (no retry with smaller steps follows; the
+    /// default). Only then may a first line search on ‖rhs‖ (γ > 0) that finds nothing accept a
+    /// step on which the incremental potential without the damping term falls by Armijo's rule.
+    pub fn set_last_resort(&mut self, last: bool) {
+        self.last_resort = last;
     }
 
     /// Solve one step. On entry `x` holds the initial guess with its constrained components at
@@ -848,6 +866,8 @@ impl Newton {
         let potential_merit = params.rayleigh_stiffness == 0.0 || matches!(kind, StepKind::Static);
         let mut alpha = 1.0;
         let mut best: Option<(f64, f64)> = None; // (merit, alpha)
+        // With γ > 0, the largest step on which the undamped incremental potential met Armijo.
+        let mut downhill: Option<(usize, f64)> = None; // (cut, alpha)
         for cut in 0..=MAX_LINE_SEARCH_CUTS {
             set_axpy(x, &self.x_start, alpha, &self.dx);
             let trial = self.evaluate(body, kind, f_ext, free, params, x, v);
@@ -874,7 +894,30 @@ impl Newton {
             if finite && best.is_none_or(|(m, _)| merit < m) {
                 best = Some((merit, alpha));
             }
+            if finite
+                && !potential_merit
+                && self.last_resort
+                && info.iterations == 1
+                && downhill.is_none()
+                && slope < 0.0
+                && trial.potential <= current.potential + 1e-4 * alpha * slope
+            {
+                downhill = Some((cut, alpha));
+            }
             alpha *= 0.5;
+        }
+        if let Some((cut, alpha)) = downhill {
+            // ‖rhs‖ cannot fall where the forces jump: at a collapsed tet (F = 0, every vertex
+            // of a body on one point) the energy is a cone and any step changes the forces by a
+            // finite amount. The potential without the damping term still falls along dx (it
+            // is the energy the damping only dissipates), so the step is taken on its word. Only
+            // where the step would otherwise not move at all (first iterate, last attempt): a
+            // frozen state fails the same way at every later frame, while elsewhere a smaller
+            // step is the better cure (taking this step at every failed search sent a corotated
+            // beam from a jittered line into a folded minimum, 2.9 edges from rest).
+            info.line_search_cuts += cut;
+            set_axpy(x, &self.x_start, alpha, &self.dx);
+            return Some(self.evaluate(body, kind, f_ext, free, params, x, v));
         }
         info.line_search_cuts += MAX_LINE_SEARCH_CUTS;
         // Nothing acceptable: take the best finite trial if it improved at all, else give up.

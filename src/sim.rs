@@ -216,6 +216,7 @@ impl Simulation {
             let retry_possible =
                 self.params.on_failure == OnFailure::Retry && attempt < self.params.max_step_cuts;
             let stop_early = retry_possible || self.params.on_failure == OnFailure::Stop;
+            self.newton.set_last_resort(!retry_possible);
             let (stats, finite) = self.advance(frame, substeps, stop_early);
             if stats.converged && finite {
                 break stats;
