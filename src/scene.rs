@@ -119,7 +119,8 @@ pub enum Generator {
 #[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MaterialSpec {
-    /// Constitutive model: "neo-hookean" (default), "corotated", "stable-neo-hookean",
+    /// Constitutive model: "neo-hookean" (default), "neo-hookean-clamped", "corotated",
+    /// "stable-neo-hookean",
     /// "st-venant-kirchhoff", "mooney-rivlin", "linear".
     pub model: ModelKind,
     /// Young's modulus E, Pa. Default 1e5 (when neither E, ν nor μ, λ are given).

@@ -448,6 +448,7 @@ fn tet_forces_match_energy_gradient() {
 fn isotropic_models() -> Vec<Box<dyn Isotropic>> {
     vec![
         Box::new(NeoHookean::new(lame())),
+        Box::new(NeoHookean::clamped(lame())),
         Box::new(Corotated::new(lame())),
         Box::new(StableNeoHookean::new(lame())),
         Box::new(StVenantKirchhoff::new(lame())),

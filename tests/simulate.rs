@@ -975,6 +975,11 @@ fn hard_step_matrix_full() {
 /// in a wrong shape (≥ 1 edge measured).
 const RECOVERED: f64 = 0.05;
 
+/// Whether a distance from [`recover`] counts as back at rest (NaN does not).
+fn recovered(d: f64) -> bool {
+    d < RECOVERED
+}
+
 /// Run a free body (no gravity, nothing fixed, E = 100 kPa, γ = 0.02 s) from a collapsed start
 /// for `frames` frames at 30 fps; every frame must stay finite. Returns the distance to the rest
 /// shape after rigid alignment, in mean edge lengths.
@@ -984,6 +989,18 @@ fn recover(
     collapse: Collapse,
     jitter: bool,
     frames: usize,
+) -> f64 {
+    recover_with(mesh, kind, collapse, jitter, frames, |_, _| true)
+}
+
+/// [`recover`], asking `go_on(frame, distance)` after each frame whether to continue.
+fn recover_with(
+    mesh: &TetMesh,
+    kind: ModelKind,
+    collapse: Collapse,
+    jitter: bool,
+    frames: usize,
+    mut go_on: impl FnMut(usize, f64) -> bool,
 ) -> f64 {
     let edge = mesh.mean_edge_length();
     let x0 = collapse.apply(&mesh.positions, if jitter { 1e-3 * edge } else { 0.0 }, 7);
@@ -1000,6 +1017,7 @@ fn recover(
         ..Default::default()
     };
     let mut sim = Simulation::new(body, Boundary::default(), params, initial).unwrap();
+    let distance = |sim: &Simulation| rigid_distance(&sim.body.mesh.positions, &sim.state.x) / edge;
     while !sim.is_finished() {
         let stats = sim.step().unwrap();
         assert!(
@@ -1011,8 +1029,30 @@ fn recover(
             "{kind:?} {collapse:?}: NaN at frame {}",
             stats.frame
         );
+        if !go_on(stats.frame, distance(&sim)) {
+            break;
+        }
     }
-    rigid_distance(&sim.body.mesh.positions, &sim.state.x) / edge
+    distance(&sim)
+}
+
+/// [`recover`], stopping early once the body has been within a fifth of [`RECOVERED`] of its
+/// rest shape at two checks 10 frames apart (a damped body that close has nowhere else to go):
+/// keeps the CI test fast.
+fn recover_until_rest(
+    mesh: &TetMesh,
+    kind: ModelKind,
+    collapse: Collapse,
+    jitter: bool,
+    frames: usize,
+) -> f64 {
+    let mut near = 0;
+    recover_with(mesh, kind, collapse, jitter, frames, |frame, d| {
+        if frame % 10 == 0 {
+            near = if d < 0.2 * RECOVERED { near + 1 } else { 0 };
+        }
+        near < 2
+    })
 }
 
 fn small_beam() -> TetMesh {
@@ -1027,13 +1067,10 @@ fn flattened_and_pointlike_bodies_recover() {
     // Kirchhoff have no force there (their documented limit: a tet squeezed onto a point stays a
     // point), and small-strain linear elasticity cannot tell a rotated body from a strained one.
     let meshes = [("beam", small_beam()), ("ball", carved_ball(1.0, 5))];
-    let kinds = [
-        ModelKind::NeoHookean,
-        ModelKind::Corotated,
-        ModelKind::MooneyRivlin,
-    ];
+    // Clamped Neo-Hookean and corotated run these starts (and the tangled ones) in
+    // `every_collapsed_and_tangled_start_recovers_with_clamped_neo_hookean_and_corotated`.
     for (name, mesh) in &meshes {
-        for kind in kinds {
+        for kind in [ModelKind::NeoHookean, ModelKind::MooneyRivlin] {
             for (collapse, jitter) in [
                 (Collapse::Plane, false),
                 (Collapse::Plane, true),
@@ -1050,34 +1087,30 @@ fn flattened_and_pointlike_bodies_recover() {
 }
 
 #[test]
-fn tangled_starts_recover_with_neo_hookean_and_corotated() {
-    // On a line, on a jittered point, scrambled in a small box (with and without jitter):
-    // tangled starts, about half the tets inverted with random orientations. The cases here come
-    // back within 5 s; `recovery_table` lists every case (a jittered point or line can leave a
-    // Neo-Hookean body folded in a wrong shape with every tet positively oriented).
-    let ball = carved_ball(1.0, 5);
-    let beam = small_beam();
-    let cases = [
-        (ModelKind::NeoHookean, &ball, Collapse::Line, false),
-        (ModelKind::NeoHookean, &ball, Collapse::Line, true),
-        (ModelKind::NeoHookean, &ball, Collapse::Scrambled, false),
-        (ModelKind::NeoHookean, &ball, Collapse::Scrambled, true),
-        (ModelKind::NeoHookean, &beam, Collapse::Line, false),
-        (ModelKind::NeoHookean, &beam, Collapse::Scrambled, true),
-        (ModelKind::Corotated, &ball, Collapse::Line, true),
-        (ModelKind::Corotated, &ball, Collapse::Point, true),
-        (ModelKind::Corotated, &ball, Collapse::Scrambled, false),
-        (ModelKind::Corotated, &beam, Collapse::Line, true),
-        (ModelKind::Corotated, &beam, Collapse::Point, true),
-        (ModelKind::Corotated, &beam, Collapse::Scrambled, true),
-    ];
-    for (kind, mesh, collapse, jitter) in cases {
-        let d = recover(mesh, kind, collapse, jitter, 150);
-        assert!(
-            d < RECOVERED,
-            "{kind:?} {collapse:?} jitter {jitter}: {d:.3} edges"
-        );
+fn every_collapsed_and_tangled_start_recovers_with_clamped_neo_hookean_and_corotated() {
+    // Irving et al. 2004's demonstrations on a beam and a ball: every vertex on one plane, on one
+    // line, on one point (each with and without jitter) or scrambled in a small box (with and
+    // without jitter); the tangled starts have about half the tets inverted with random
+    // orientations. Each comes back to its rest shape up to a rigid motion, with no NaN at any
+    // frame. `recovery_table` prints the distances, for every model (the default Neo-Hookean
+    // continuation leaves a jittered line or point beam folded; see its module docs).
+    let meshes = [("beam", small_beam()), ("ball", carved_ball(1.0, 5))];
+    let mut failures = Vec::new();
+    for (name, mesh) in &meshes {
+        for kind in [ModelKind::NeoHookeanClamped, ModelKind::Corotated] {
+            for collapse in Collapse::ALL {
+                for jitter in [false, true] {
+                    let d = recover_until_rest(mesh, kind, collapse, jitter, 150);
+                    if !recovered(d) {
+                        failures.push(format!(
+                            "{name} {kind:?} {collapse:?} jitter {jitter}: {d:.3} edges"
+                        ));
+                    }
+                }
+            }
+        }
     }
+    assert!(failures.is_empty(), "not recovered: {failures:#?}");
 }
 
 /// The closing note's table: every start × material on the two small meshes,
@@ -1093,18 +1126,27 @@ fn recovery_table() {
     print_recovery_table(&meshes, &ModelKind::ALL, 300);
 }
 
-/// The same on the TetGen ball fixture (3,560 tets) for the two SPEC materials, 150 frames:
+/// The same on the TetGen ball fixture (3,560 tets) for the SPEC materials, 150 frames:
 /// `cargo test --release --test simulate recovery_table_tetgen -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn recovery_table_tetgen_ball() {
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/ball.node");
     let meshes = [("TetGen ball", tetsim::io::read_mesh(&fixture).unwrap().mesh)];
-    print_recovery_table(&meshes, &[ModelKind::NeoHookean, ModelKind::Corotated], 150);
+    print_recovery_table(
+        &meshes,
+        &[
+            ModelKind::NeoHookean,
+            ModelKind::NeoHookeanClamped,
+            ModelKind::Corotated,
+        ],
+        150,
+    );
 }
 
 fn print_recovery_table(meshes: &[(&str, TetMesh)], kinds: &[ModelKind], frames: usize) {
     println!("| mesh | material | start | jitter | distance (edges) | seconds |");
+    let mut failures = Vec::new();
     for (name, mesh) in meshes {
         for &kind in kinds {
             for collapse in Collapse::ALL {
@@ -1117,21 +1159,33 @@ fn print_recovery_table(meshes: &[(&str, TetMesh)], kinds: &[ModelKind], frames:
                         collapse.name(),
                         started.elapsed().as_secs_f64()
                     );
-                    let restoring = matches!(
-                        kind,
-                        ModelKind::NeoHookean | ModelKind::Corotated | ModelKind::MooneyRivlin
-                    );
-                    if restoring
-                        && (matches!(collapse, Collapse::Plane)
-                            || (collapse == Collapse::Point && !jitter))
+                    // Clamped Neo-Hookean and corotated come back from every start; Neo-Hookean
+                    // (the continuation) and Mooney-Rivlin from the untangled ones; no other
+                    // model may blow up (a wrong fold stays within the body's own size, a few
+                    // edges). Mooney-Rivlin from a scrambled ball does, the README's known
+                    // limit: it is printed, not asserted.
+                    let required = match kind {
+                        ModelKind::NeoHookeanClamped | ModelKind::Corotated => true,
+                        ModelKind::NeoHookean | ModelKind::MooneyRivlin => {
+                            collapse == Collapse::Plane || (collapse == Collapse::Point && !jitter)
+                        }
+                        _ => false,
+                    };
+                    let blown_up = d.is_nan() || d >= BLOWN_UP;
+                    if (required && !recovered(d)) || (blown_up && kind != ModelKind::MooneyRivlin)
                     {
-                        assert!(d < RECOVERED, "{name} {kind:?} {collapse:?} {jitter}: {d}");
+                        failures.push(format!("{name} {kind:?} {collapse:?} {jitter}: {d}"));
                     }
                 }
             }
         }
     }
+    assert!(failures.is_empty(), "not recovered: {failures:#?}");
 }
+
+/// Distance from rest, in mean edge lengths, beyond which a run counts as blown up rather than
+/// folded: every recovery mesh is at most 20 edges across.
+const BLOWN_UP: f64 = 20.0;
 
 #[test]
 fn energy_audit_closes_and_flags_injection() {

@@ -8,6 +8,7 @@
 //! | scene name | model | inverted / flat F |
 //! |---|---|---|
 //! | `neo-hookean` | [`NeoHookean`], SPEC §2 | extended log, restoring |
+//! | `neo-hookean-clamped` | [`NeoHookean`], Irving et al. 2004 | clamped stretches, linear spring (for tangled starts) |
 //! | `corotated` | [`Corotated`], SPEC §2 | polynomial, restoring |
 //! | `stable-neo-hookean` | [`StableNeoHookean`], Smith et al. 2018 | polynomial, restoring (F = 0 is critical) |
 //! | `st-venant-kirchhoff` | [`StVenantKirchhoff`] | finite, but reflections cost nothing |
@@ -35,7 +36,7 @@ pub use corotated::Corotated;
 pub use isotropic::{Derivatives, ExtendedLog, Invertible, Isotropic};
 pub use linear::LinearElastic;
 pub use mooney_rivlin::MooneyRivlin;
-pub use neo_hookean::NeoHookean;
+pub use neo_hookean::{Inversion, NeoHookean};
 pub use st_venant_kirchhoff::StVenantKirchhoff;
 pub use stable_neo_hookean::StableNeoHookean;
 
@@ -271,6 +272,9 @@ impl Lame {
 pub enum ModelKind {
     /// [`NeoHookean`], `neo-hookean`.
     NeoHookean,
+    /// [`NeoHookean`] with the clamp below the threshold ([`Inversion::Clamp`]),
+    /// `neo-hookean-clamped`.
+    NeoHookeanClamped,
     /// [`Corotated`], `corotated`.
     Corotated,
     /// [`StableNeoHookean`], `stable-neo-hookean`.
@@ -285,8 +289,9 @@ pub enum ModelKind {
 
 impl ModelKind {
     /// Every model, in the order the docs list them.
-    pub const ALL: [ModelKind; 6] = [
+    pub const ALL: [ModelKind; 7] = [
         ModelKind::NeoHookean,
+        ModelKind::NeoHookeanClamped,
         ModelKind::Corotated,
         ModelKind::StableNeoHookean,
         ModelKind::StVenantKirchhoff,
@@ -298,6 +303,7 @@ impl ModelKind {
     pub fn name(self) -> &'static str {
         match self {
             ModelKind::NeoHookean => "neo-hookean",
+            ModelKind::NeoHookeanClamped => "neo-hookean-clamped",
             ModelKind::Corotated => "corotated",
             ModelKind::StableNeoHookean => "stable-neo-hookean",
             ModelKind::StVenantKirchhoff => "st-venant-kirchhoff",
@@ -306,12 +312,13 @@ impl ModelKind {
         }
     }
 
-    /// The model of a scene name or alias (`snh`; `stvk`, `saint-venant-kirchhoff`;
+    /// The model of a scene name or alias (`nh-clamped`; `snh`; `stvk`, `saint-venant-kirchhoff`;
     /// `linear-elastic`, `linear-elasticity`); case-insensitive, `_` and ` ` read as `-`.
     pub fn from_name(name: &str) -> Option<Self> {
         let name = name.trim().to_ascii_lowercase().replace(['_', ' '], "-");
         let kind = match name.as_str() {
             "snh" => ModelKind::StableNeoHookean,
+            "nh-clamped" => ModelKind::NeoHookeanClamped,
             "stvk" | "saint-venant-kirchhoff" => ModelKind::StVenantKirchhoff,
             "linear-elastic" | "linear-elasticity" => ModelKind::Linear,
             other => return ModelKind::ALL.into_iter().find(|k| k.name() == other),
@@ -336,7 +343,7 @@ impl std::fmt::Display for ModelKind {
 /// [`Material`] on F directly).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Model {
-    /// Neo-Hookean with the extended log (see [`NeoHookean`]).
+    /// Neo-Hookean, either inversion extension (see [`NeoHookean`]).
     NeoHookean(Invertible<NeoHookean>),
     /// Corotated (see [`Corotated`]).
     Corotated(Invertible<Corotated>),
@@ -373,6 +380,9 @@ impl Model {
     pub fn new(kind: ModelKind, lame: Lame) -> Self {
         match kind {
             ModelKind::NeoHookean => Model::NeoHookean(Invertible::new(NeoHookean::new(lame))),
+            ModelKind::NeoHookeanClamped => {
+                Model::NeoHookean(Invertible::new(NeoHookean::clamped(lame)))
+            }
             ModelKind::Corotated => Model::Corotated(Invertible::new(Corotated::new(lame))),
             ModelKind::StableNeoHookean => {
                 Model::StableNeoHookean(Invertible::new(StableNeoHookean::new(lame)))
@@ -390,7 +400,10 @@ impl Model {
     /// Which model this is.
     pub fn kind(&self) -> ModelKind {
         match self {
-            Model::NeoHookean(_) => ModelKind::NeoHookean,
+            Model::NeoHookean(m) => match m.model.inversion {
+                Inversion::Continuation => ModelKind::NeoHookean,
+                Inversion::Clamp => ModelKind::NeoHookeanClamped,
+            },
             Model::Corotated(_) => ModelKind::Corotated,
             Model::StableNeoHookean(_) => ModelKind::StableNeoHookean,
             Model::StVenantKirchhoff(_) => ModelKind::StVenantKirchhoff,

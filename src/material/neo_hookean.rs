@@ -1,38 +1,86 @@
 //! Neo-Hookean, SPEC §2: `Ψ = μ/2 (tr(FᵀF) − 3) − μ log J + λ/2 (log J)²`,
 //! `P = μ(F − F⁻ᵀ) + λ log J F⁻ᵀ`.
 //!
-//! In principal stretches, with `L = Σ ℓ(σₖ)` standing in for log J:
+//! In principal stretches, with `L = Σ ln σₖ = log J`:
+//! `Ψ̂_NH(σ) = μ/2 (Σσₖ² − 3) − μL + λ/2 L²`, `qₖ = ∂Ψ̂_NH/∂σₖ = μσₖ + (λL − μ)/σₖ`.
+//!
+//! **Inversion** (Irving et al. 2004, §5) is handled by one of two extensions below the stretch
+//! threshold ε, each written as an energy so that Ψ̂, p and ∂p/∂σ stay exact derivatives of each
+//! other for every σ. Where every σ ≥ ε both are exactly the analytic model.
+//!
+//! **Continuation** (`neo-hookean`, the default): `L = Σ ℓ(σₖ)` stands in for log J,
 //! `Ψ̂ = μ/2 (Σσₖ² − 3) − μL + λ/2 L² + Σ R(σₖ)`, `pₖ = μσₖ + (λL − μ) ℓ'(σₖ) + R'(σₖ)`.
-//!
-//! **Inversion** (Irving et al. 2004, §5), written as an energy so that Ψ̂, p and ∂p/∂σ stay exact
-//! derivatives of each other for every σ:
-//! - ℓ = ln above the stretch threshold ε and, below it, a C² continuation that levels off:
-//!   ℓ(σ) = ln ε − 3 + (3 + 2t)e^{−t}, t = (ε − σ)/ε, bounded below by ln ε − 3. This is the
-//!   energy form of Irving's "evaluate the stress at the clamped stretch": a collapsed or inverted
-//!   stretch no longer drives L (and through λL/σᵢ the other stretches) without bound. An
-//!   unbounded continuation (a Taylor expansion of ln) made inverted tets expand in their plane
-//!   without limit and left tangled bodies stuck in wrong shapes.
+//! - ℓ = ln above ε and, below it, a C² continuation that levels off:
+//!   ℓ(σ) = ln ε − 3 + (3 + 2t)e^{−t}, t = (ε − σ)/ε, bounded below by ln ε − 3. A collapsed or
+//!   inverted stretch no longer drives L (and through λL/σᵢ the other stretches) without bound.
+//!   An unbounded continuation (a Taylor expansion of ln) made inverted tets expand in their
+//!   plane without limit and left tangled bodies stuck in wrong shapes.
 //! - R(σ) = k/(3ε)·(ε − σ)³ below ε (zero above; C²), k = λ + 2μ: Irving's linear extrapolation
-//!   of the stress below the threshold, as an energy — the restoring force grows with the depth
-//!   of the collapse or inversion, and reopens tets squeezed onto a plane, a line or a point.
+//!   of the stress below the threshold, as an energy.
 //!
-//! Where every σ ≥ ε the model is exactly the analytic one.
+//! **Clamp** (`neo-hookean-clamped`):
+//! `Ψ̂(σ) = Ψ̂_NH(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`, `pₖ = c′(σₖ)·qₖ(c) − k·(c(σₖ) − σₖ)`.
+//! - c is a smooth clamp of one stretch: c(σ) = σ at and above ε; over the window [ε − w, ε]
+//!   below it (w = ε/2) a C² easing (c′ = 1 − 3u² + 2u³, u = (ε − σ)/w) takes it onto the floor
+//!   ε − w/2 = ¾ε, where it stays for every smaller or negative σ. This is Irving's "evaluate the
+//!   stress at the clamped stretch" as an energy: the whole Neo-Hookean energy, its volume term
+//!   included, sees a collapsed or inverted stretch as ¾ε.
+//! - R is a linear spring on what the clamp takes away: R′(σ) = −k·(c(σ) − σ), zero above ε,
+//!   R″ = k·(1 − c′) ramping from 0 to k over the window (C²), k = 2μ, the stiffness of
+//!   corotated's deviatoric term: below the window a stretch is pulled back towards the floor in
+//!   proportion to its depth, for collapsed (σ = 0) and inverted (σ < 0) tets alike.
+//!
+//! **Why two** (issue 6). A tet flattened onto a plane keeps stretching in its plane until its
+//! volume term balances: with L fed by the collapsed stretch, a flat tet wants σ₁σ₂ ≈ 1/σ₃. The
+//! continuation leaves that drive almost intact: from a jittered line or point the 6×2×2 beam
+//! settles in a genuine local minimum (2.06e4 J, zero velocity after 1,200 frames, every J > 0,
+//! vertices inside other tets) where the beam's end cubes are everted and held by flattened,
+//! in-plane stretched tets (σ ≈ (1.65, 1.18, 0.06)), 1.34 edge lengths from rest. The analytic
+//! model (threshold 0.01) holds the same fold with σ₃ ≈ 0.25, so only the energy below the
+//! threshold can remove it. With the clamp a flat tet's volume term sees ¾ε and its in-plane
+//! equilibrium stretch is about 1.3, as for corotated, and the spring restores the collapsed
+//! stretch like corotated's. Measured over 172 starts (every start on the 6×2×2 beam, plus line,
+//! point and scrambled with eight seeds, on beams 4×2×2, 6×2×2, 8×2×2 and 6×3×2; ν = 0.3) with
+//! `cargo run --release --example recovery_diag -- model=nhc start=all
+//! meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`: 1 stays folded with the clamp,
+//! 103 with the continuation (`model=nh`; corotated, `model=co`: 13). k = λ + 2μ did as well at ν = 0.3 but not at ν = 0.45, and
+//! 2(λ + 2μ) badly, so the clamp's spring is the shear stiffness alone.
+//!
+//! The price of the clamp is curvature: where the clamp levels off (c″ > 0 against a large
+//! compressive q) the energy is strongly non-convex, and Newton with the projected tangent
+//! converges slowly. Crushing a block under a plate (`scenes/squash_release.toml`) gave 31
+//! retry warnings, two unconverged frames and an energy gain of 56 J in one frame with the clamp
+//! against 2 warnings with the continuation; a flattened cube (`scenes/squash_recover.toml`) 9
+//! warnings against none. A wider window (w = ε), a lower threshold (0.3, 0.45), a stiffer
+//! spring (k = 2μ + λ, 2μ + 4λ), the `abs` or `analytic` definiteness fix and 50 Newton
+//! iterations did not cure it. So the continuation stays the default and the clamp is the model
+//! for tangled starts.
 
 use super::Lame;
 use super::isotropic::{Derivatives, Isotropic, PAIRS, guarded_quotient};
 use crate::math::{Mat3, Vec3};
 
-/// Default inversion threshold: stretches below 0.6 use the continuation (ℓ differs from ln by
-/// 0.6 % at σ = 0.5 and 10 % at σ = 0.3). Chosen by measurement on the Irving recovery cases
-/// (flattened, line-collapsed, point-collapsed with jitter and scrambled beams and balls, 10 s
-/// each): at 0.3 half of the tangled starts stayed folded in a wrong shape, at 0.5 four, at 0.6
-/// three (all from a jittered line or point); a lower threshold keeps the analytic model further
-/// into compression but raises the energy barrier a folded body must cross to unfold.
+/// Default inversion threshold of both extensions: stretches below 0.6 are extended. Chosen by
+/// measurement on the Irving recovery cases (flattened, line- and point-collapsed, scrambled
+/// beams and balls): with the continuation, 0.3 left half of the tangled starts folded, 0.5 four,
+/// 0.6 three; with the clamp, 0.5–0.8 all recover most. A lower threshold keeps the analytic
+/// model further into compression.
 pub const DEFAULT_INVERSION_THRESHOLD: f64 = 0.6;
 
-/// Relative gap below which divided differences of ℓ' use the midpoint derivative (error
-/// ~gap², below rounding) instead of the quotient (error ~ε_machine/gap).
+/// Relative gap below which divided differences of the extended terms use the midpoint
+/// derivative (error ~gap², below rounding) instead of the quotient (error ~ε_machine/gap).
 const NEAR: f64 = 1e-4;
+
+/// How the model is extended below the stretch threshold (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Inversion {
+    /// `neo-hookean`: ln continued smoothly and levelling off, plus a cubic restoring term. Newton
+    /// converges well under crushing; a few tangled starts stay folded.
+    Continuation,
+    /// `neo-hookean-clamped`: every stretch clamped onto a floor, plus a linear restoring
+    /// spring. Recovers tangled starts; harder for Newton where many tets are crushed flat.
+    Clamp,
+}
 
 /// Neo-Hookean in principal stretches (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,17 +89,41 @@ pub struct NeoHookean {
     pub lame: Lame,
     /// The stretch threshold ε of the inversion handling.
     pub threshold: f64,
+    /// The extension below ε.
+    pub inversion: Inversion,
+}
+
+/// The clamp of one stretch and the spring on what it takes away, with their derivatives.
+#[derive(Clone, Copy, Debug)]
+struct Clamped {
+    /// c(σ), c′(σ), c″(σ).
+    c: f64,
+    c1: f64,
+    c2: f64,
+    /// R(σ), R′(σ) = −k(c − σ), R″(σ) = k(1 − c′).
+    r: f64,
+    r1: f64,
+    r2: f64,
 }
 
 impl NeoHookean {
-    /// With the default inversion threshold.
+    /// The continuation with the default inversion threshold.
     pub fn new(lame: Lame) -> Self {
-        Self::with_threshold(lame, DEFAULT_INVERSION_THRESHOLD)
+        Self::with_inversion(lame, Inversion::Continuation, DEFAULT_INVERSION_THRESHOLD)
     }
 
-    /// With a given inversion threshold (a stretch in (0, 1)).
-    pub fn with_threshold(lame: Lame, threshold: f64) -> Self {
-        NeoHookean { lame, threshold }
+    /// The clamp with the default inversion threshold.
+    pub fn clamped(lame: Lame) -> Self {
+        Self::with_inversion(lame, Inversion::Clamp, DEFAULT_INVERSION_THRESHOLD)
+    }
+
+    /// A given extension and inversion threshold (a stretch in (0, 1)).
+    pub fn with_inversion(lame: Lame, inversion: Inversion, threshold: f64) -> Self {
+        NeoHookean {
+            lame,
+            threshold,
+            inversion,
+        }
     }
 
     /// ℓ(σ), ℓ'(σ), ℓ''(σ).
@@ -87,14 +159,14 @@ impl NeoHookean {
         if s >= e {
             return (0.0, 0.0, 0.0);
         }
-        let (k, d) = (self.restoring(), e - s);
+        let (k, d) = (self.continuation_restoring(), e - s);
         (k * d * d * d / (3.0 * e), -k * d * d / e, 2.0 * k * d / e)
     }
 
     /// (R'(a) − R'(b))/(a − b), in closed form per branch (exact at a = b).
     fn collapse_divided_difference(&self, a: f64, b: f64) -> f64 {
         let (a, b) = if a >= b { (a, b) } else { (b, a) };
-        let (e, k) = (self.threshold, self.restoring());
+        let (e, k) = (self.threshold, self.continuation_restoring());
         if b >= e {
             0.0
         } else if a < e {
@@ -105,13 +177,13 @@ impl NeoHookean {
         }
     }
 
-    /// k of the restoring term: the P-wave modulus λ + 2μ.
-    fn restoring(&self) -> f64 {
+    /// k of the continuation's restoring term: the P-wave modulus λ + 2μ.
+    fn continuation_restoring(&self) -> f64 {
         self.lame.lambda + 2.0 * self.lame.mu
     }
 
-    /// Ψ̂, p, H and the pair eigenvalues at σ, sharing L and the logarithms.
-    fn all(&self, s: &Vec3) -> Derivatives {
+    /// The continuation (every σ; above ε it is the analytic model term by term).
+    fn continued(&self, s: &Vec3) -> Derivatives {
         let Lame { mu, lambda } = self.lame;
         let logs = [self.log(s[0]), self.log(s[1]), self.log(s[2])];
         let r = [
@@ -145,6 +217,164 @@ impl NeoHookean {
                 guarded_quotient(d1[a] + d1[b], sa + sb)
             };
             pair_skew[n] = mu + c * log_sum + guarded_quotient(r[a].1 + r[b].1, sa + sb);
+        }
+        Derivatives {
+            psi,
+            p,
+            h,
+            pair_sym,
+            pair_skew,
+        }
+    }
+
+    /// k of the restoring spring: 2μ, the stiffness of corotated's deviatoric term.
+    fn clamp_restoring(&self) -> f64 {
+        2.0 * self.lame.mu
+    }
+
+    /// c, R and their derivatives at one stretch σ < ε (see the module docs).
+    fn clamp_below(&self, s: f64) -> Clamped {
+        let e = self.threshold;
+        let w = 0.5 * e;
+        let k = self.clamp_restoring();
+        let d = e - s;
+        let u = d / w;
+        if u >= 1.0 {
+            // On the floor: c = ε − w/2, the spring is linear with force k·(c − σ).
+            let a = d - 0.5 * w;
+            return Clamped {
+                c: e - 0.5 * w,
+                c1: 0.0,
+                c2: 0.0,
+                r: k * (0.5 * a * a + 0.025 * w * w),
+                r1: -k * a,
+                r2: k,
+            };
+        }
+        let (u2, u3) = (u * u, u * u * u);
+        // c − σ = w(u³ − u⁴/2); R = k∫(c − σ) = k w²(u⁴/4 − u⁵/10).
+        let gap = w * (u3 - 0.5 * u2 * u2);
+        Clamped {
+            c: s + gap,
+            c1: 1.0 - 3.0 * u2 + 2.0 * u3,
+            c2: 6.0 * u * (1.0 - u) / w,
+            r: k * w * w * (0.25 * u2 * u2 - 0.1 * u2 * u3),
+            r1: -k * gap,
+            r2: k * (3.0 * u2 - 2.0 * u3),
+        }
+    }
+
+    /// The clamp at any stretch (identity, no spring, at and above ε).
+    fn clamp_or_identity(&self, s: f64) -> Clamped {
+        if s >= self.threshold {
+            Clamped {
+                c: s,
+                c1: 1.0,
+                c2: 0.0,
+                r: 0.0,
+                r1: 0.0,
+                r2: 0.0,
+            }
+        } else {
+            self.clamp_below(s)
+        }
+    }
+
+    /// Ψ̂, p, H and the pair eigenvalues at σ, sharing L and the logarithms.
+    fn all(&self, s: &Vec3) -> Derivatives {
+        match self.inversion {
+            Inversion::Continuation => self.continued(s),
+            Inversion::Clamp if s.min() >= self.threshold => self.analytic(s),
+            Inversion::Clamp => self.clamped_model(s),
+        }
+    }
+
+    /// The analytic Neo-Hookean, every σ ≥ ε.
+    fn analytic(&self, s: &Vec3) -> Derivatives {
+        let Lame { mu, lambda } = self.lame;
+        let l = s[0].ln() + s[1].ln() + s[2].ln();
+        let a = lambda * l - mu;
+        let psi = 0.5 * mu * (s.norm_squared() - 3.0) - mu * l + 0.5 * lambda * l * l;
+        let d1 = s.map(|x| 1.0 / x);
+        let p = Vec3::from_fn(|k, _| mu * s[k] + a * d1[k]);
+        let mut h = lambda * d1 * d1.transpose();
+        for k in 0..3 {
+            h[(k, k)] += mu + a * (-1.0 / (s[k] * s[k]));
+        }
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (n, &(i, j)) in PAIRS.iter().enumerate() {
+            // (pᵢ ∓ pⱼ)/(σᵢ ∓ σⱼ) = μ ∓ (λL − μ)/(σᵢσⱼ), no division by σᵢ ∓ σⱼ.
+            let inv = 1.0 / (s[i] * s[j]);
+            pair_sym[n] = mu + a * (-inv);
+            pair_skew[n] = mu + a * inv;
+        }
+        Derivatives {
+            psi,
+            p,
+            h,
+            pair_sym,
+            pair_skew,
+        }
+    }
+
+    /// The clamp-and-spring model, some σ < ε.
+    fn clamped_model(&self, s: &Vec3) -> Derivatives {
+        let Lame { mu, lambda } = self.lame;
+        let e = self.threshold;
+        let k = self.clamp_restoring();
+        let m = [
+            self.clamp_or_identity(s[0]),
+            self.clamp_or_identity(s[1]),
+            self.clamp_or_identity(s[2]),
+        ];
+        let c = Vec3::new(m[0].c, m[1].c, m[2].c);
+        let l = c[0].ln() + c[1].ln() + c[2].ln();
+        let a = lambda * l - mu;
+        let psi = 0.5 * mu * (c.norm_squared() - 3.0) - mu * l
+            + 0.5 * lambda * l * l
+            + m.iter().map(|m| m.r).sum::<f64>();
+        // q = ∂Ψ̂_NH/∂c; p = c′q + R′.
+        let q = Vec3::from_fn(|i, _| mu * c[i] + a / c[i]);
+        let p = Vec3::from_fn(|i, _| m[i].c1 * q[i] + m[i].r1);
+        let mut h = Mat3::zeros();
+        for i in 0..3 {
+            for j in 0..3 {
+                h[(i, j)] = lambda * m[i].c1 * m[j].c1 / (c[i] * c[j]);
+            }
+            let qii = mu - a / (c[i] * c[i]);
+            h[(i, i)] += m[i].c1 * m[i].c1 * qii + m[i].c2 * q[i] + m[i].r2;
+        }
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (n, &(i, j)) in PAIRS.iter().enumerate() {
+            let (si, sj) = (s[i], s[j]);
+            if si >= e && sj >= e {
+                let inv = 1.0 / (si * sj);
+                pair_sym[n] = mu + a * (-inv);
+                pair_skew[n] = mu + a * inv;
+                continue;
+            }
+            // pₖ = μ·(cc′)ₖ + (λL − μ)·(c′/c)ₖ − k·(c − σ)ₖ: divided differences of the three
+            // one-stretch functions, by the quotient or, at a tiny gap, the midpoint derivative.
+            let (dd_cc1, dd_c1_c, dd_c) = if (si - sj).abs() <= NEAR * e {
+                let mid = self.clamp_or_identity(0.5 * (si + sj));
+                (
+                    mid.c1 * mid.c1 + mid.c * mid.c2,
+                    mid.c2 / mid.c - mid.c1 * mid.c1 / (mid.c * mid.c),
+                    mid.c1,
+                )
+            } else {
+                let gap = si - sj;
+                (
+                    (c[i] * m[i].c1 - c[j] * m[j].c1) / gap,
+                    (m[i].c1 / c[i] - m[j].c1 / c[j]) / gap,
+                    (c[i] - c[j]) / gap,
+                )
+            };
+            pair_sym[n] = mu * dd_cc1 + a * dd_c1_c - k * (dd_c - 1.0);
+            // The rotation-variant energy has its genuine pole at σᵢ = −σⱼ, guarded.
+            pair_skew[n] = guarded_quotient(p[i] + p[j], si + sj);
         }
         Derivatives {
             psi,

@@ -12,7 +12,7 @@ pub fn check_matches_analytic(model: &Model, seed: u64) {
     // stretch threshold is 0.6.
     let lowest = if matches!(
         model.kind(),
-        ModelKind::MooneyRivlin | ModelKind::NeoHookean
+        ModelKind::MooneyRivlin | ModelKind::NeoHookean | ModelKind::NeoHookeanClamped
     ) {
         0.7
     } else {
@@ -26,7 +26,7 @@ pub fn check_matches_analytic(model: &Model, seed: u64) {
         let c = f.transpose() * f;
         let i1 = c.trace();
         let (psi, p) = match model.kind() {
-            ModelKind::NeoHookean => {
+            ModelKind::NeoHookean | ModelKind::NeoHookeanClamped => {
                 let log_j = j.ln();
                 (
                     0.5 * mu * (i1 - 3.0) - mu * log_j + 0.5 * lambda * log_j * log_j,

@@ -78,6 +78,8 @@ fn model_names_round_trip() {
         assert_eq!(Model::new(kind, lame()).kind(), kind);
     }
     let aliases = [
+        ("nh-clamped", ModelKind::NeoHookeanClamped),
+        ("Neo_Hookean_Clamped", ModelKind::NeoHookeanClamped),
         ("snh", ModelKind::StableNeoHookean),
         ("Stable_Neo_Hookean", ModelKind::StableNeoHookean),
         ("stvk", ModelKind::StVenantKirchhoff),

@@ -58,7 +58,7 @@ fn formula(kind: ModelKind, l1: f64, t: f64) -> (f64, f64) {
             t * t - (1.0 - nu * (l1 * l1 - 1.0)),
             0.5 * e * l1 * (l1 * l1 - 1.0),
         ),
-        ModelKind::NeoHookean => (
+        ModelKind::NeoHookean | ModelKind::NeoHookeanClamped => (
             (mu * (t * t - 1.0) + lambda * (l1 * t * t).ln()) / scale,
             mu * (l1 * l1 - t * t) / l1,
         ),
@@ -154,6 +154,7 @@ fn st_venant_kirchhoff_softens_under_compression_and_ignores_reflection() {
     // The robust models push the same reflection back.
     for kind in [
         ModelKind::NeoHookean,
+        ModelKind::NeoHookeanClamped,
         ModelKind::StableNeoHookean,
         ModelKind::MooneyRivlin,
     ] {
