@@ -453,6 +453,7 @@ fn isotropic_models() -> Vec<Box<dyn Isotropic>> {
         Box::new(StableNeoHookean::new(lame())),
         Box::new(StVenantKirchhoff::new(lame())),
         Box::new(MooneyRivlin::new(lame())),
+        Box::new(MooneyRivlin::clamped(lame())),
     ]
 }
 

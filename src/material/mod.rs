@@ -12,7 +12,7 @@
 //! | `corotated` | [`Corotated`], SPEC §2 | polynomial, restoring |
 //! | `stable-neo-hookean` | [`StableNeoHookean`], Smith et al. 2018 | polynomial, restoring (F = 0 is critical) |
 //! | `st-venant-kirchhoff` | [`StVenantKirchhoff`] | finite, but reflections cost nothing |
-//! | `mooney-rivlin` | [`MooneyRivlin`], compressible | extended J^(−2/3) and log, restoring |
+//! | `mooney-rivlin` | [`MooneyRivlin`], compressible | clamped stretches, linear spring ([`Clamped`]) |
 //! | `linear` | [`LinearElastic`], small strain | finite; not rotation invariant |
 //!
 //! ```
@@ -24,6 +24,7 @@
 //! assert!(model.stress(&stretched)[(0, 0)] > 0.0);
 //! ```
 
+pub mod clamp;
 pub mod corotated;
 pub mod isotropic;
 pub mod linear;
@@ -32,6 +33,7 @@ pub mod neo_hookean;
 pub mod st_venant_kirchhoff;
 pub mod stable_neo_hookean;
 
+pub use clamp::{Clamped, StretchClamp};
 pub use corotated::Corotated;
 pub use isotropic::{Derivatives, ExtendedLog, Invertible, Isotropic};
 pub use linear::LinearElastic;
@@ -352,7 +354,7 @@ pub enum Model {
     /// St. Venant-Kirchhoff (see [`StVenantKirchhoff`]).
     StVenantKirchhoff(Invertible<StVenantKirchhoff>),
     /// Compressible Mooney-Rivlin (see [`MooneyRivlin`]).
-    MooneyRivlin(Invertible<MooneyRivlin>),
+    MooneyRivlin(Invertible<Clamped<MooneyRivlin>>),
     /// Linear elasticity (see [`LinearElastic`]).
     Linear(LinearElastic),
 }
@@ -391,7 +393,7 @@ impl Model {
                 Model::StVenantKirchhoff(Invertible::new(StVenantKirchhoff::new(lame)))
             }
             ModelKind::MooneyRivlin => {
-                Model::MooneyRivlin(Invertible::new(MooneyRivlin::new(lame)))
+                Model::MooneyRivlin(Invertible::new(MooneyRivlin::clamped(lame)))
             }
             ModelKind::Linear => Model::Linear(LinearElastic::new(lame)),
         }

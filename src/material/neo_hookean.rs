@@ -57,6 +57,7 @@
 //! for tangled starts.
 
 use super::Lame;
+use super::clamp::StretchClamp;
 use super::isotropic::{Derivatives, Isotropic, PAIRS, guarded_quotient};
 use crate::math::{Mat3, Vec3};
 
@@ -91,19 +92,6 @@ pub struct NeoHookean {
     pub threshold: f64,
     /// The extension below ε.
     pub inversion: Inversion,
-}
-
-/// The clamp of one stretch and the spring on what it takes away, with their derivatives.
-#[derive(Clone, Copy, Debug)]
-struct Clamped {
-    /// c(σ), c′(σ), c″(σ).
-    c: f64,
-    c1: f64,
-    c2: f64,
-    /// R(σ), R′(σ) = −k(c − σ), R″(σ) = k(1 − c′).
-    r: f64,
-    r1: f64,
-    r2: f64,
 }
 
 impl NeoHookean {
@@ -232,51 +220,11 @@ impl NeoHookean {
         2.0 * self.lame.mu
     }
 
-    /// c, R and their derivatives at one stretch σ < ε (see the module docs).
-    fn clamp_below(&self, s: f64) -> Clamped {
-        let e = self.threshold;
-        let w = 0.5 * e;
-        let k = self.clamp_restoring();
-        let d = e - s;
-        let u = d / w;
-        if u >= 1.0 {
-            // On the floor: c = ε − w/2, the spring is linear with force k·(c − σ).
-            let a = d - 0.5 * w;
-            return Clamped {
-                c: e - 0.5 * w,
-                c1: 0.0,
-                c2: 0.0,
-                r: k * (0.5 * a * a + 0.025 * w * w),
-                r1: -k * a,
-                r2: k,
-            };
-        }
-        let (u2, u3) = (u * u, u * u * u);
-        // c − σ = w(u³ − u⁴/2); R = k∫(c − σ) = k w²(u⁴/4 − u⁵/10).
-        let gap = w * (u3 - 0.5 * u2 * u2);
-        Clamped {
-            c: s + gap,
-            c1: 1.0 - 3.0 * u2 + 2.0 * u3,
-            c2: 6.0 * u * (1.0 - u) / w,
-            r: k * w * w * (0.25 * u2 * u2 - 0.1 * u2 * u3),
-            r1: -k * gap,
-            r2: k * (3.0 * u2 - 2.0 * u3),
-        }
-    }
-
-    /// The clamp at any stretch (identity, no spring, at and above ε).
-    fn clamp_or_identity(&self, s: f64) -> Clamped {
-        if s >= self.threshold {
-            Clamped {
-                c: s,
-                c1: 1.0,
-                c2: 0.0,
-                r: 0.0,
-                r1: 0.0,
-                r2: 0.0,
-            }
-        } else {
-            self.clamp_below(s)
+    /// The clamp of one stretch and its spring.
+    fn clamp(&self) -> StretchClamp {
+        StretchClamp {
+            threshold: self.threshold,
+            stiffness: self.clamp_restoring(),
         }
     }
 
@@ -322,12 +270,9 @@ impl NeoHookean {
     fn clamped_model(&self, s: &Vec3) -> Derivatives {
         let Lame { mu, lambda } = self.lame;
         let e = self.threshold;
-        let k = self.clamp_restoring();
-        let m = [
-            self.clamp_or_identity(s[0]),
-            self.clamp_or_identity(s[1]),
-            self.clamp_or_identity(s[2]),
-        ];
+        let clamp = self.clamp();
+        let k = clamp.stiffness;
+        let m = [clamp.at(s[0]), clamp.at(s[1]), clamp.at(s[2])];
         let c = Vec3::new(m[0].c, m[1].c, m[2].c);
         let l = c[0].ln() + c[1].ln() + c[2].ln();
         let a = lambda * l - mu;
@@ -358,7 +303,7 @@ impl NeoHookean {
             // pₖ = μ·(cc′)ₖ + (λL − μ)·(c′/c)ₖ − k·(c − σ)ₖ: divided differences of the three
             // one-stretch functions, by the quotient or, at a tiny gap, the midpoint derivative.
             let (dd_cc1, dd_c1_c, dd_c) = if (si - sj).abs() <= NEAR * e {
-                let mid = self.clamp_or_identity(0.5 * (si + sj));
+                let mid = clamp.at(0.5 * (si + sj));
                 (
                     mid.c1 * mid.c1 + mid.c * mid.c2,
                     mid.c2 / mid.c - mid.c1 * mid.c1 / (mid.c * mid.c),

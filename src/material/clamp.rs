@@ -1,0 +1,215 @@
+//! Irving et al. 2004's clamped stretches (§5), written as an energy for any model in principal
+//! stretches: `Ψ̂(σ) = Ψ̂_M(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`, `pₖ = c′(σₖ)·qₖ(c) − k·(c(σₖ) − σₖ)`
+//! with `q = ∂Ψ̂_M/∂σ` at the clamped stretches.
+//!
+//! - c is a smooth clamp of one stretch: c(σ) = σ at and above the threshold ε; over the window
+//!   [ε − w, ε] below it (w = ε/2) a C² easing (c′ = 1 − 3u² + 2u³, u = (ε − σ)/w) takes it onto
+//!   the floor ε − w/2 = ¾ε, where it stays for every smaller or negative σ. The model never sees
+//!   a stretch below ¾ε, so every term stays finite and bounded however flat or inverted a tet is.
+//! - R is a linear spring on what the clamp takes away: R′(σ) = −k·(c(σ) − σ), zero above ε,
+//!   R″ = k·(1 − c′) ramping from 0 to k over the window (C²): below the window a stretch is
+//!   pulled back towards the floor in proportion to its depth, for collapsed (σ = 0) and
+//!   inverted (σ < 0) tets alike. k is chosen per model (2μ, the stiffness of corotated's
+//!   deviatoric term, for Neo-Hookean and Mooney-Rivlin).
+//!
+//! Where every σ ≥ ε the model is the wrapped one, bit for bit the same code path.
+
+use super::isotropic::{Derivatives, Isotropic, PAIRS, guarded_quotient};
+use crate::math::{Mat3, Vec3};
+
+/// Relative gap below which divided differences of c and c′ use the midpoint derivative (error
+/// ~gap², below rounding) instead of the quotient (error ~ε_machine/gap).
+const NEAR: f64 = 1e-4;
+
+/// The clamp of one stretch and its spring: threshold ε and spring stiffness k.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StretchClamp {
+    /// ε: stretches below it are clamped.
+    pub threshold: f64,
+    /// k of the restoring spring, Pa.
+    pub stiffness: f64,
+}
+
+/// c, R and their derivatives at one stretch.
+#[derive(Clone, Copy, Debug)]
+pub struct ClampedStretch {
+    /// c(σ).
+    pub c: f64,
+    /// c′(σ).
+    pub c1: f64,
+    /// c″(σ).
+    pub c2: f64,
+    /// R(σ).
+    pub r: f64,
+    /// R′(σ) = −k(c − σ).
+    pub r1: f64,
+    /// R″(σ) = k(1 − c′).
+    pub r2: f64,
+}
+
+impl StretchClamp {
+    /// c, R and their derivatives at σ (identity, no spring, at and above ε).
+    #[inline]
+    pub fn at(&self, s: f64) -> ClampedStretch {
+        if s >= self.threshold {
+            return ClampedStretch {
+                c: s,
+                c1: 1.0,
+                c2: 0.0,
+                r: 0.0,
+                r1: 0.0,
+                r2: 0.0,
+            };
+        }
+        let e = self.threshold;
+        let w = 0.5 * e;
+        let k = self.stiffness;
+        let d = e - s;
+        let u = d / w;
+        if u >= 1.0 {
+            // On the floor: c = ε − w/2, the spring is linear with force k·(c − σ).
+            let a = d - 0.5 * w;
+            return ClampedStretch {
+                c: e - 0.5 * w,
+                c1: 0.0,
+                c2: 0.0,
+                r: k * (0.5 * a * a + 0.025 * w * w),
+                r1: -k * a,
+                r2: k,
+            };
+        }
+        let (u2, u3) = (u * u, u * u * u);
+        // c − σ = w(u³ − u⁴/2); R = k∫(c − σ) = k w²(u⁴/4 − u⁵/10).
+        let gap = w * (u3 - 0.5 * u2 * u2);
+        ClampedStretch {
+            c: s + gap,
+            c1: 1.0 - 3.0 * u2 + 2.0 * u3,
+            c2: 6.0 * u * (1.0 - u) / w,
+            r: k * w * w * (0.25 * u2 * u2 - 0.1 * u2 * u3),
+            r1: -k * gap,
+            r2: k * (3.0 * u2 - 2.0 * u3),
+        }
+    }
+
+    /// The divided differences `((cᵢ − cⱼ), (c′ᵢ − c′ⱼ))/(σᵢ − σⱼ)`, by the quotient or, at a
+    /// tiny gap, the midpoint derivatives.
+    #[inline]
+    pub fn divided_differences(
+        &self,
+        (si, sj): (f64, f64),
+        (mi, mj): (&ClampedStretch, &ClampedStretch),
+    ) -> (f64, f64) {
+        if (si - sj).abs() <= NEAR * self.threshold {
+            let mid = self.at(0.5 * (si + sj));
+            (mid.c1, mid.c2)
+        } else {
+            let gap = si - sj;
+            ((mi.c - mj.c) / gap, (mi.c1 - mj.c1) / gap)
+        }
+    }
+}
+
+/// A model in principal stretches with its stretches clamped below a threshold (see the module
+/// docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clamped<M> {
+    /// The wrapped model, which only ever sees stretches of at least ¾ε.
+    pub model: M,
+    /// The clamp and its spring.
+    pub clamp: StretchClamp,
+}
+
+impl<M: Isotropic> Clamped<M> {
+    /// The composite at σ, some σ < ε.
+    fn below(&self, s: &Vec3) -> Derivatives {
+        let m = [
+            self.clamp.at(s[0]),
+            self.clamp.at(s[1]),
+            self.clamp.at(s[2]),
+        ];
+        let c = Vec3::new(m[0].c, m[1].c, m[2].c);
+        let inner = self.model.derivatives(&c);
+        let q = inner.p;
+        let p = Vec3::from_fn(|i, _| m[i].c1 * q[i] + m[i].r1);
+        let mut h = Mat3::from_fn(|i, j| m[i].c1 * m[j].c1 * inner.h[(i, j)]);
+        for i in 0..3 {
+            h[(i, i)] += m[i].c2 * q[i] + m[i].r2;
+        }
+        let k = self.clamp.stiffness;
+        let e = self.clamp.threshold;
+        let mut pair_sym = Vec3::zeros();
+        let mut pair_skew = Vec3::zeros();
+        for (n, &(i, j)) in PAIRS.iter().enumerate() {
+            if s[i] >= e && s[j] >= e {
+                // c = σ, c′ = 1 and no spring on both: the wrapped model's own closed forms.
+                pair_sym[n] = inner.pair_sym[n];
+                pair_skew[n] = inner.pair_skew[n];
+                continue;
+            }
+            // pᵢ − pⱼ = c′ᵢ(qᵢ − qⱼ) + (c′ᵢ − c′ⱼ)qⱼ + R′ᵢ − R′ⱼ, with qᵢ − qⱼ the wrapped pair
+            // eigenvalue times cᵢ − cⱼ: no quotient of p itself, so nothing cancels at σᵢ ≈ σⱼ.
+            let (dd_c, dd_c1) = self.clamp.divided_differences((s[i], s[j]), (&m[i], &m[j]));
+            pair_sym[n] = m[i].c1 * inner.pair_sym[n] * dd_c + dd_c1 * q[j] - k * (dd_c - 1.0);
+            // The rotation-variant energy has its genuine pole at σᵢ = −σⱼ, guarded.
+            pair_skew[n] = guarded_quotient(p[i] + p[j], s[i] + s[j]);
+        }
+        Derivatives {
+            psi: inner.psi + m.iter().map(|m| m.r).sum::<f64>(),
+            p,
+            h,
+            pair_sym,
+            pair_skew,
+        }
+    }
+
+    #[inline]
+    fn all(&self, s: &Vec3) -> Derivatives {
+        if s.min() >= self.clamp.threshold {
+            self.model.derivatives(s)
+        } else {
+            self.below(s)
+        }
+    }
+}
+
+impl<M: Isotropic> Isotropic for Clamped<M> {
+    fn psi(&self, s: &Vec3) -> f64 {
+        if s.min() >= self.clamp.threshold {
+            self.model.psi(s)
+        } else {
+            self.below(s).psi
+        }
+    }
+
+    fn dpsi(&self, s: &Vec3) -> Vec3 {
+        if s.min() >= self.clamp.threshold {
+            self.model.dpsi(s)
+        } else {
+            self.below(s).p
+        }
+    }
+
+    fn d2psi(&self, s: &Vec3) -> Mat3 {
+        if s.min() >= self.clamp.threshold {
+            self.model.d2psi(s)
+        } else {
+            self.below(s).h
+        }
+    }
+
+    fn pair_eigenvalues(&self, s: &Vec3, p: &Vec3, h: &Mat3, i: usize, j: usize) -> (f64, f64) {
+        if s.min() >= self.clamp.threshold {
+            return self.model.pair_eigenvalues(s, p, h, i, j);
+        }
+        let d = self.below(s);
+        let n = PAIRS
+            .iter()
+            .position(|&p| p == (i.min(j), i.max(j)))
+            .expect("a pair of distinct indices");
+        (d.pair_sym[n], d.pair_skew[n])
+    }
+
+    fn derivatives(&self, s: &Vec3) -> Derivatives {
+        self.all(s)
+    }
+}
