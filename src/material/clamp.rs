@@ -1,16 +1,26 @@
 //! Irving et al. 2004's clamped stretches (§5), written as an energy for any model in principal
-//! stretches: `Ψ̂(σ) = Ψ̂_M(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`, `pₖ = c′(σₖ)·qₖ(c) − k·(c(σₖ) − σₖ)`
-//! with `q = ∂Ψ̂_M/∂σ` at the clamped stretches.
+//! stretches: `Ψ̂(σ) = Ψ̂_M(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`, `pₖ = c′(σₖ)·qₖ(c) + R′(σₖ)` with
+//! `q = ∂Ψ̂_M/∂σ` at the clamped stretches.
 //!
 //! - c is a smooth clamp of one stretch: c(σ) = σ at and above the threshold ε; over the window
 //!   [ε − w, ε] below it (w = ε/2) a C² easing (c′ = 1 − 3u² + 2u³, u = (ε − σ)/w) takes it onto
 //!   the floor ε − w/2 = ¾ε, where it stays for every smaller or negative σ. The model never sees
 //!   a stretch below ¾ε, so every term stays finite and bounded however flat or inverted a tet is.
-//! - R is a linear spring on what the clamp takes away: R′(σ) = −k·(c(σ) − σ), zero above ε,
-//!   R″ = k·(1 − c′) ramping from 0 to k over the window (C²): below the window a stretch is
-//!   pulled back towards the floor in proportion to its depth, for collapsed (σ = 0) and
-//!   inverted (σ < 0) tets alike. k is chosen per model (2μ, the stiffness of corotated's
-//!   deviatoric term, for Neo-Hookean and Mooney-Rivlin).
+//! - R restores what the clamp takes away, with g = c − σ ≥ 0 the depth below the clamp:
+//!   `R = k∫g + Q·g`, `R′ = −k·g − Q·(1 − c′)`, `R″ = k·(1 − c′) + Q·c″`, zero above ε and C²
+//!   across it. The spring k·g pulls a stretch back in proportion to its depth, for collapsed
+//!   (σ = 0) and inverted (σ < 0) tets alike. The push Q hands the model's compressive stress,
+//!   which c′ → 0 switches off across the window, over to a constant: without it the stress
+//!   fell from q(ε) to almost nothing as a tet was crushed through the window (a softening
+//!   material, and Newton retried 31 steps of a block crushed under a plate), and its curvature
+//!   Q·c″ offsets the window's negative c″·q.
+//!
+//! For Neo-Hookean and Mooney-Rivlin k = Q = 2μ (2μ is the stiffness of corotated's deviatoric
+//! term). Measured on 172 tangled starts (`cargo run --release --example recovery_diag --
+//! model=nhc start=all meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`): with Q = 2μ no
+//! start stays folded for either model (Q = 0: 1 for Neo-Hookean, 4 for Mooney-Rivlin), and the
+//! squashed block of `scenes/squash_release.toml` retries 11 steps instead of 31 (Q = μ: 26,
+//! 3μ: 11, 4.4μ: 16, 8μ: 21).
 //!
 //! Where every σ ≥ ε the model is the wrapped one, bit for bit the same code path.
 
@@ -28,6 +38,8 @@ pub struct StretchClamp {
     pub threshold: f64,
     /// k of the restoring spring, Pa.
     pub stiffness: f64,
+    /// Q, the constant push, Pa.
+    pub push: f64,
 }
 
 /// c, R and their derivatives at one stretch.
@@ -64,6 +76,7 @@ impl StretchClamp {
         let e = self.threshold;
         let w = 0.5 * e;
         let k = self.stiffness;
+        let q = self.push;
         let d = e - s;
         let u = d / w;
         if u >= 1.0 {
@@ -73,22 +86,30 @@ impl StretchClamp {
                 c: e - 0.5 * w,
                 c1: 0.0,
                 c2: 0.0,
-                r: k * (0.5 * a * a + 0.025 * w * w),
-                r1: -k * a,
+                r: k * (0.5 * a * a + 0.025 * w * w) + q * a,
+                r1: -k * a - q,
                 r2: k,
             };
         }
         let (u2, u3) = (u * u, u * u * u);
         // c − σ = w(u³ − u⁴/2); R = k∫(c − σ) = k w²(u⁴/4 − u⁵/10).
         let gap = w * (u3 - 0.5 * u2 * u2);
+        let c1 = 1.0 - 3.0 * u2 + 2.0 * u3;
+        let c2 = 6.0 * u * (1.0 - u) / w;
         ClampedStretch {
             c: s + gap,
-            c1: 1.0 - 3.0 * u2 + 2.0 * u3,
-            c2: 6.0 * u * (1.0 - u) / w,
-            r: k * w * w * (0.25 * u2 * u2 - 0.1 * u2 * u3),
-            r1: -k * gap,
-            r2: k * (3.0 * u2 - 2.0 * u3),
+            c1,
+            c2,
+            r: k * w * w * (0.25 * u2 * u2 - 0.1 * u2 * u3) + q * gap,
+            r1: -k * gap - q * (1.0 - c1),
+            r2: k * (3.0 * u2 - 2.0 * u3) + q * c2,
         }
+    }
+
+    /// (R′ᵢ − R′ⱼ)/(σᵢ − σⱼ) from the divided differences of c and c′.
+    #[inline]
+    pub fn spring_divided_difference(&self, dd_c: f64, dd_c1: f64) -> f64 {
+        -self.stiffness * (dd_c - 1.0) + self.push * dd_c1
     }
 
     /// The divided differences `((cᵢ − cⱼ), (c′ᵢ − c′ⱼ))/(σᵢ − σⱼ)`, by the quotient or, at a
@@ -135,7 +156,6 @@ impl<M: Isotropic> Clamped<M> {
         for i in 0..3 {
             h[(i, i)] += m[i].c2 * q[i] + m[i].r2;
         }
-        let k = self.clamp.stiffness;
         let e = self.clamp.threshold;
         let mut pair_sym = Vec3::zeros();
         let mut pair_skew = Vec3::zeros();
@@ -149,7 +169,9 @@ impl<M: Isotropic> Clamped<M> {
             // pᵢ − pⱼ = c′ᵢ(qᵢ − qⱼ) + (c′ᵢ − c′ⱼ)qⱼ + R′ᵢ − R′ⱼ, with qᵢ − qⱼ the wrapped pair
             // eigenvalue times cᵢ − cⱼ: no quotient of p itself, so nothing cancels at σᵢ ≈ σⱼ.
             let (dd_c, dd_c1) = self.clamp.divided_differences((s[i], s[j]), (&m[i], &m[j]));
-            pair_sym[n] = m[i].c1 * inner.pair_sym[n] * dd_c + dd_c1 * q[j] - k * (dd_c - 1.0);
+            pair_sym[n] = m[i].c1 * inner.pair_sym[n] * dd_c
+                + dd_c1 * q[j]
+                + self.clamp.spring_divided_difference(dd_c, dd_c1);
             // The rotation-variant energy has its genuine pole at σᵢ = −σⱼ, guarded.
             pair_skew[n] = guarded_quotient(p[i] + p[j], s[i] + s[j]);
         }

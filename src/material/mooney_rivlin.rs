@@ -20,17 +20,18 @@
 //!   force: every function of (I₁, I₂, J) alone has a zero gradient there.
 //!
 //! **The clamp** (`mooney-rivlin` is [`MooneyRivlin::clamped`]): the model is wrapped in
-//! [`Clamped`], so it only ever sees stretches of at least ¾·0.6 = 0.45 (J ≥ 0.09), and a
-//! linear 2μ spring restores the stretches the clamp takes away (see [`super::clamp`]). Without
-//! it the Taylor-extended J^(−2/3) grows quadratically with the depth of an inversion, and a
-//! ball scrambled inside a small box (half its tets inside out) stored so much energy that it
-//! flew apart: 1.35e7 J of kinetic energy in the first frame, 7.5e5 edge lengths from rest after
-//! 300 frames, elastic energy 1e38 J and growing. With the clamp it comes back (1e-4 edges), and
-//! 4 of 172 tangled starts stay folded (`cargo run --release --example recovery_diag --
-//! model=mr start=all meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`). The price is
-//! Newton's work where many tets are crushed flat: `scenes/squash_release.toml` with this model
-//! retried 43 steps (4 without the clamp) and its audit flagged a 154 J gain in one frame.
-//! The energy that never blows up is the default; [`MooneyRivlin::new`] is the model alone.
+//! [`Clamped`], so it only ever sees stretches of at least ¾·0.6 = 0.45 (J ≥ 0.09), and a 2μ
+//! spring and a 2μ push restore the stretches the clamp takes away (see [`super::clamp`]).
+//! Without it the Taylor-extended J^(−2/3) grows quadratically with the depth of an inversion,
+//! and a ball scrambled inside a small box (half its tets inside out) stored so much energy that
+//! it flew apart: 1.35e7 J of kinetic energy in the first frame, 7.5e5 edge lengths from rest
+//! after 300 frames, elastic energy 1e38 J and growing. With the clamp it comes back (1e-4
+//! edges), and none of 172 tangled starts stays folded (`cargo run --release --example
+//! recovery_diag -- model=mr start=all meshes=beam,beam4,beam8,beam632
+//! seeds=7,1,2,3,4,5,6,8`). The price is Newton's work where many tets are crushed flat:
+//! `scenes/squash_release.toml` with this model retried 21 steps (4 without the clamp), left 2
+//! frames unconverged (none) and its audit flagged a 36 J gain in one frame. The energy that
+//! never blows up is the default; [`MooneyRivlin::new`] is the model alone.
 //!
 //! Above both thresholds (every σₖ ≥ the stretch threshold and J ≥ the volume threshold) the model
 //! is exactly the analytic one. In principal stretches, with `I₂ = Σᵢ<ⱼ σᵢ²σⱼ²`, `cₖ = ∂J/∂σₖ`,
@@ -89,6 +90,7 @@ impl MooneyRivlin {
             clamp: StretchClamp {
                 threshold: DEFAULT_CLAMP_THRESHOLD,
                 stiffness: 2.0 * lame.mu,
+                push: 2.0 * lame.mu,
             },
         }
     }

@@ -18,17 +18,12 @@
 //! - R(σ) = k/(3ε)·(ε − σ)³ below ε (zero above; C²), k = λ + 2μ: Irving's linear extrapolation
 //!   of the stress below the threshold, as an energy.
 //!
-//! **Clamp** (`neo-hookean-clamped`):
-//! `Ψ̂(σ) = Ψ̂_NH(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`, `pₖ = c′(σₖ)·qₖ(c) − k·(c(σₖ) − σₖ)`.
-//! - c is a smooth clamp of one stretch: c(σ) = σ at and above ε; over the window [ε − w, ε]
-//!   below it (w = ε/2) a C² easing (c′ = 1 − 3u² + 2u³, u = (ε − σ)/w) takes it onto the floor
-//!   ε − w/2 = ¾ε, where it stays for every smaller or negative σ. This is Irving's "evaluate the
-//!   stress at the clamped stretch" as an energy: the whole Neo-Hookean energy, its volume term
-//!   included, sees a collapsed or inverted stretch as ¾ε.
-//! - R is a linear spring on what the clamp takes away: R′(σ) = −k·(c(σ) − σ), zero above ε,
-//!   R″ = k·(1 − c′) ramping from 0 to k over the window (C²), k = 2μ, the stiffness of
-//!   corotated's deviatoric term: below the window a stretch is pulled back towards the floor in
-//!   proportion to its depth, for collapsed (σ = 0) and inverted (σ < 0) tets alike.
+//! **Clamp** (`neo-hookean-clamped`): Irving's clamped stretches as an energy (see
+//! [`super::clamp`]): `Ψ̂(σ) = Ψ̂_NH(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`. c clamps each stretch onto
+//! the floor ¾ε through a C² window, so the whole Neo-Hookean energy, its volume term included,
+//! sees a collapsed or inverted stretch as ¾ε; R (a spring k = 2μ and a push Q = 2μ) restores
+//! what the clamp takes away. This file keeps Neo-Hookean's own closed forms for the pair
+//! eigenvalues; the clamp's c and R come from [`StretchClamp`].
 //!
 //! **Why two** (issue 6). A tet flattened onto a plane keeps stretching in its plane until its
 //! volume term balances: with L fed by the collapsed stretch, a flat tet wants σ₁σ₂ ≈ 1/σ₃. The
@@ -42,19 +37,21 @@
 //! stretch like corotated's. Measured over 172 starts (every start on the 6×2×2 beam, plus line,
 //! point and scrambled with eight seeds, on beams 4×2×2, 6×2×2, 8×2×2 and 6×3×2; ν = 0.3) with
 //! `cargo run --release --example recovery_diag -- model=nhc start=all
-//! meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`: 1 stays folded with the clamp,
-//! 103 with the continuation (`model=nh`; corotated, `model=co`: 13). k = λ + 2μ did as well at ν = 0.3 but not at ν = 0.45, and
-//! 2(λ + 2μ) badly, so the clamp's spring is the shear stiffness alone.
+//! meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`: none stays folded with the clamp,
+//! 103 with the continuation (`model=nh`; corotated, `model=co`: 13). For the spring k = λ + 2μ
+//! did as well at ν = 0.3 but not at ν = 0.45, and 2(λ + 2μ) badly, so it is the shear
+//! stiffness alone.
 //!
-//! The price of the clamp is curvature: where the clamp levels off (c″ > 0 against a large
-//! compressive q) the energy is strongly non-convex, and Newton with the projected tangent
-//! converges slowly. Crushing a block under a plate (`scenes/squash_release.toml`) gave 31
-//! retry warnings, two unconverged frames and an energy gain of 56 J in one frame with the clamp
-//! against 2 warnings with the continuation; a flattened cube (`scenes/squash_recover.toml`) 9
-//! warnings against none. A wider window (w = ε), a lower threshold (0.3, 0.45), a stiffer
-//! spring (k = 2μ + λ, 2μ + 4λ), the `abs` or `analytic` definiteness fix and 50 Newton
-//! iterations did not cure it. So the continuation stays the default and the clamp is the model
-//! for tangled starts.
+//! The price of the clamp is Newton's work where many tets are crushed flat. Across the window
+//! the clamp switches the model's compressive stress off (c′ → 0) and the energy curves the
+//! wrong way (c″·q < 0); the push Q hands that stress over and offsets the curvature, but not
+//! entirely. Crushing a block under a plate (`scenes/squash_release.toml`) retried 11 steps
+//! (31 without the push), left one frame unconverged and gained 9 J in one frame, against 2
+//! retries with the continuation; a flattened cube (`scenes/squash_recover.toml`) 5 retries
+//! and one unconverged frame against none. Without the push, a wider window (w = ε), a lower
+//! threshold (0.3, 0.45), a stiffer spring (k = 2μ + λ, 2μ + 4λ), the `abs` or `analytic`
+//! definiteness fix and 50 Newton iterations did not cure it either. So the continuation stays
+//! the default and the clamp is the model for tangled starts.
 
 use super::Lame;
 use super::clamp::StretchClamp;
@@ -225,6 +222,7 @@ impl NeoHookean {
         StretchClamp {
             threshold: self.threshold,
             stiffness: self.clamp_restoring(),
+            push: 2.0 * self.lame.mu,
         }
     }
 
@@ -271,7 +269,6 @@ impl NeoHookean {
         let Lame { mu, lambda } = self.lame;
         let e = self.threshold;
         let clamp = self.clamp();
-        let k = clamp.stiffness;
         let m = [clamp.at(s[0]), clamp.at(s[1]), clamp.at(s[2])];
         let c = Vec3::new(m[0].c, m[1].c, m[2].c);
         let l = c[0].ln() + c[1].ln() + c[2].ln();
@@ -302,12 +299,13 @@ impl NeoHookean {
             }
             // pₖ = μ·(cc′)ₖ + (λL − μ)·(c′/c)ₖ − k·(c − σ)ₖ: divided differences of the three
             // one-stretch functions, by the quotient or, at a tiny gap, the midpoint derivative.
-            let (dd_cc1, dd_c1_c, dd_c) = if (si - sj).abs() <= NEAR * e {
+            let (dd_cc1, dd_c1_c, dd_c, dd_c1) = if (si - sj).abs() <= NEAR * e {
                 let mid = clamp.at(0.5 * (si + sj));
                 (
                     mid.c1 * mid.c1 + mid.c * mid.c2,
                     mid.c2 / mid.c - mid.c1 * mid.c1 / (mid.c * mid.c),
                     mid.c1,
+                    mid.c2,
                 )
             } else {
                 let gap = si - sj;
@@ -315,9 +313,10 @@ impl NeoHookean {
                     (c[i] * m[i].c1 - c[j] * m[j].c1) / gap,
                     (m[i].c1 / c[i] - m[j].c1 / c[j]) / gap,
                     (c[i] - c[j]) / gap,
+                    (m[i].c1 - m[j].c1) / gap,
                 )
             };
-            pair_sym[n] = mu * dd_cc1 + a * dd_c1_c - k * (dd_c - 1.0);
+            pair_sym[n] = mu * dd_cc1 + a * dd_c1_c + clamp.spring_divided_difference(dd_c, dd_c1);
             // The rotation-variant energy has its genuine pole at σᵢ = −σⱼ, guarded.
             pair_skew[n] = guarded_quotient(p[i] + p[j], si + sj);
         }
