@@ -6,8 +6,8 @@
 //! A sweep (every start; seeds other than 7 only for the jittered and scrambled starts):
 //! `cargo run --release --example recovery_diag -- model=nhc start=all meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`
 //!
-//! Keys (`key=value`): model nh|nhc|co|mr (nh: `neo-hookean`, nhc: `neo-hookean-clamped`), mesh beam|beam4|beam8|beam632|ball|ball4|ball5 (cells=N
-//! for ball), start plane|line|point|scrambled|all, jitter 0|1, seed, frames, E, nu, eps (the
+//! Keys (`key=value`): model nh|nhc|co|mr (nh: `neo-hookean`, nhc: `neo-hookean-clamped`), mesh beam|beam4|beam8|beam632|ball|ball4|ball5|tetgen (cells=N
+//! for ball; tetgen: the TetGen ball fixture), start plane|line|point|scrambled|all, jitter 0|1, seed, frames, E, nu, eps (the
 //! Neo-Hookean inversion threshold), gamma, def (definiteness), pc amg|jacobi|none, every,
 //! first, dump=FILE, dumpat=N dumpstate=FILE, loadstate=FILE, switch=N model2=co (change the
 //! material at frame N). Runs end early once settled; "recovered" means < 0.05 mean edges
@@ -179,6 +179,11 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
         }
         "ball5" => carved_ball(1.0, 5),
         "ball4" => carved_ball(1.0, 4),
+        "tetgen" => {
+            let fixture =
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/ball.node");
+            tetsim::io::read_mesh(&fixture).unwrap().mesh
+        }
         other => panic!("{other}"),
     };
     let lame = Lame::from_young_poisson(

@@ -344,6 +344,8 @@ struct Assembled {
     /// or refresh, and of the last solve.
     baseline_rate: Option<f64>,
     last_rate: f64,
+    /// Whether the last CG solve stopped at its iteration cap.
+    last_capped: bool,
 }
 
 impl Assembled {
@@ -365,6 +367,7 @@ impl Assembled {
             params: params.amg.clone(),
             baseline_rate: None,
             last_rate: 0.0,
+            last_capped: false,
         }
     }
 
@@ -406,6 +409,16 @@ impl Assembled {
                     &self.params,
                 )))
             }
+            // A solve that ran into the CG cap says the hierarchy no longer fits A at all, not
+            // that it aged: a body started collapsed onto a line builds its aggregates from
+            // that degenerate A, and the growth rule never fires when the first solve is
+            // already capped (a 3,560-tet ball: 2,000 CG iterations at every Newton iterate,
+            // minutes per frame). Aggregates and numbers are rebuilt from the current A.
+            OnAssembled::Amg(Some(amg)) if self.last_capped && !exact => {
+                **amg = Amg::new(&self.a, &body.mesh.positions, free, &self.params);
+                self.baseline_rate = None;
+                self.last_capped = false;
+            }
             OnAssembled::Amg(Some(amg)) if stale && !exact => {
                 amg.refresh(&self.a);
                 self.baseline_rate = None;
@@ -442,6 +455,7 @@ impl Assembled {
     fn record(&mut self, info: &CgInfo) {
         let decades = (-info.relative_residual.max(1e-300).log10()).max(0.25);
         self.last_rate = info.iterations as f64 / decades;
+        self.last_capped = !info.converged;
         self.baseline_rate.get_or_insert(self.last_rate);
     }
 }

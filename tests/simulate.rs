@@ -1117,6 +1117,39 @@ fn every_collapsed_and_tangled_start_recovers_with_the_clamped_models_and_corota
     assert!(failures.is_empty(), "not recovered: {failures:#?}");
 }
 
+#[test]
+fn amg_is_rebuilt_when_cg_runs_into_its_cap() {
+    // The TetGen ball collapsed onto a line: the first AMG hierarchy is built from that
+    // degenerate A, the first solve runs into the 2,000-iteration cap, and the growth rule
+    // alone never refreshed it (2,000 CG iterations at every Newton iterate, minutes per frame).
+    // Rebuilt after the capped solve, the rest of the first frame takes a few iterations each.
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/ball.node");
+    let mesh = tetsim::io::read_mesh(&fixture).unwrap().mesh;
+    let x0 = Collapse::Line.apply(&mesh.positions, 0.0, 7);
+    let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e5, 0.3));
+    let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
+    let initial = State {
+        v: vec![Vec3::zeros(); x0.len()],
+        x: x0,
+        t: 0.0,
+    };
+    let params = SolverParams {
+        frames: 1,
+        rayleigh_stiffness: 0.02,
+        ..Default::default()
+    };
+    let mut sim = Simulation::new(body, Boundary::default(), params, initial).unwrap();
+    let stats = sim.step().unwrap();
+    assert!(stats.converged, "{stats:?}");
+    assert_eq!(stats.substeps, 1, "{stats:?}");
+    assert!(
+        stats.cg_iterations < 2000 + 20 * stats.newton_iterations,
+        "{} CG iterations in {} Newton iterations",
+        stats.cg_iterations,
+        stats.newton_iterations
+    );
+}
+
 /// The closing note's table: every start × material on the two small meshes,
 /// 300 frames. Asserts no NaN anywhere and recovery where it is known to happen; prints the rest.
 /// `cargo test --release --test simulate recovery_table -- --ignored --nocapture`.
