@@ -25,7 +25,7 @@
 //! Without it the Taylor-extended J^(−2/3) grows quadratically with the depth of an inversion,
 //! and a ball scrambled inside a small box (half its tets inside out) stored so much energy that
 //! it flew apart: 1.35e7 J of kinetic energy in the first frame, 7.5e5 edge lengths from rest
-//! after 300 frames, elastic energy 1e38 J and growing. With the clamp it comes back (1e-4
+//! after 300 frames, elastic energy 1e38 J and growing. With the clamp it comes back (8e-4
 //! edges), and none of 172 tangled starts stays folded (`cargo run --release --example
 //! recovery_diag -- model=mr start=all meshes=beam,beam4,beam8,beam632
 //! seeds=7,1,2,3,4,5,6,8`). The price is Newton's work where many tets are crushed flat:
