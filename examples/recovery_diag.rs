@@ -16,7 +16,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tetsim::boundary::Boundary;
 use tetsim::integrator::SolverParams;
-use tetsim::material::{Corotated, Inversion, Invertible, NeoHookean};
+use tetsim::material::{Corotated, Invertible, NeoHookean};
 use tetsim::math::svd_rv;
 use tetsim::{Definiteness, ElasticBody, Lame, Mat3, Model, Simulation, State, TetMesh, Vec3};
 
@@ -193,20 +193,12 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
     let eps: f64 = get("eps", "0.6").parse().unwrap();
     let eps2: f64 = get("eps2", &get("eps", "0.6")).parse().unwrap();
     let make = |name: &str| match name {
-        "nh" => Model::NeoHookean(Invertible::new(NeoHookean::with_inversion(
-            lame,
-            Inversion::Continuation,
-            eps,
+        "nh" => Model::NeoHookean(Invertible::new(NeoHookean::with_threshold(lame, eps))),
+        "nhc" => Model::NeoHookeanClamped(Invertible::new(NeoHookean::clamped_with_threshold(
+            lame, eps,
         ))),
-        "nhc" => Model::NeoHookean(Invertible::new(NeoHookean::with_inversion(
-            lame,
-            Inversion::Clamp,
-            eps,
-        ))),
-        "nhc2" => Model::NeoHookean(Invertible::new(NeoHookean::with_inversion(
-            lame,
-            Inversion::Clamp,
-            eps2,
+        "nhc2" => Model::NeoHookeanClamped(Invertible::new(NeoHookean::clamped_with_threshold(
+            lame, eps2,
         ))),
         "co" => Model::Corotated(Invertible::new(Corotated::new(lame))),
         "mr" => Model::new(tetsim::material::ModelKind::MooneyRivlin, lame),

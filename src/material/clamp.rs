@@ -60,6 +60,23 @@ pub struct ClampedStretch {
 }
 
 impl StretchClamp {
+    /// The clamp of Neo-Hookean and Mooney-Rivlin: k = Q = 2μ (2μ is the stiffness of
+    /// corotated's deviatoric term; see the module docs for the measurements).
+    pub fn with_shear_modulus(threshold: f64, mu: f64) -> Self {
+        StretchClamp {
+            threshold,
+            stiffness: 2.0 * mu,
+            push: 2.0 * mu,
+        }
+    }
+
+    /// The floor ¾ε: the smallest stretch the wrapped model sees.
+    #[inline]
+    pub fn floor(&self) -> f64 {
+        let e = self.threshold;
+        e - 0.25 * e
+    }
+
     /// c, R and their derivatives at σ (identity, no spring, at and above ε).
     #[inline]
     pub fn at(&self, s: f64) -> ClampedStretch {
@@ -83,7 +100,7 @@ impl StretchClamp {
             // On the floor: c = ε − w/2, the spring is linear with force k·(c − σ).
             let a = d - 0.5 * w;
             return ClampedStretch {
-                c: e - 0.5 * w,
+                c: self.floor(),
                 c1: 0.0,
                 c2: 0.0,
                 r: k * (0.5 * a * a + 0.025 * w * w) + q * a,

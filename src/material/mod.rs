@@ -38,7 +38,7 @@ pub use corotated::Corotated;
 pub use isotropic::{Derivatives, ExtendedLog, Invertible, Isotropic};
 pub use linear::LinearElastic;
 pub use mooney_rivlin::MooneyRivlin;
-pub use neo_hookean::{Inversion, NeoHookean};
+pub use neo_hookean::NeoHookean;
 pub use st_venant_kirchhoff::StVenantKirchhoff;
 pub use stable_neo_hookean::StableNeoHookean;
 
@@ -274,8 +274,7 @@ impl Lame {
 pub enum ModelKind {
     /// [`NeoHookean`], `neo-hookean`.
     NeoHookean,
-    /// [`NeoHookean`] with the clamp below the threshold ([`Inversion::Clamp`]),
-    /// `neo-hookean-clamped`.
+    /// [`NeoHookean`] behind a [`Clamped`] ([`NeoHookean::clamped`]), `neo-hookean-clamped`.
     NeoHookeanClamped,
     /// [`Corotated`], `corotated`.
     Corotated,
@@ -345,8 +344,10 @@ impl std::fmt::Display for ModelKind {
 /// [`Material`] on F directly).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Model {
-    /// Neo-Hookean, either inversion extension (see [`NeoHookean`]).
+    /// Neo-Hookean with the extended log (see [`NeoHookean`]).
     NeoHookean(Invertible<NeoHookean>),
+    /// Neo-Hookean behind the clamp (see [`NeoHookean::clamped`]).
+    NeoHookeanClamped(Invertible<Clamped<NeoHookean>>),
     /// Corotated (see [`Corotated`]).
     Corotated(Invertible<Corotated>),
     /// Stable Neo-Hookean (see [`StableNeoHookean`]).
@@ -367,6 +368,7 @@ macro_rules! with_model {
     ($model:expr, $m:ident => $body:expr) => {
         match $model {
             $crate::material::Model::NeoHookean($m) => $body,
+            $crate::material::Model::NeoHookeanClamped($m) => $body,
             $crate::material::Model::Corotated($m) => $body,
             $crate::material::Model::StableNeoHookean($m) => $body,
             $crate::material::Model::StVenantKirchhoff($m) => $body,
@@ -383,7 +385,7 @@ impl Model {
         match kind {
             ModelKind::NeoHookean => Model::NeoHookean(Invertible::new(NeoHookean::new(lame))),
             ModelKind::NeoHookeanClamped => {
-                Model::NeoHookean(Invertible::new(NeoHookean::clamped(lame)))
+                Model::NeoHookeanClamped(Invertible::new(NeoHookean::clamped(lame)))
             }
             ModelKind::Corotated => Model::Corotated(Invertible::new(Corotated::new(lame))),
             ModelKind::StableNeoHookean => {
@@ -402,10 +404,8 @@ impl Model {
     /// Which model this is.
     pub fn kind(&self) -> ModelKind {
         match self {
-            Model::NeoHookean(m) => match m.model.inversion {
-                Inversion::Continuation => ModelKind::NeoHookean,
-                Inversion::Clamp => ModelKind::NeoHookeanClamped,
-            },
+            Model::NeoHookean(_) => ModelKind::NeoHookean,
+            Model::NeoHookeanClamped(_) => ModelKind::NeoHookeanClamped,
             Model::Corotated(_) => ModelKind::Corotated,
             Model::StableNeoHookean(_) => ModelKind::StableNeoHookean,
             Model::StVenantKirchhoff(_) => ModelKind::StVenantKirchhoff,

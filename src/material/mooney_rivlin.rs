@@ -83,15 +83,12 @@ impl MooneyRivlin {
     }
 
     /// The model of `mooney-rivlin`: the default split and thresholds, with the stretches
-    /// clamped below [`DEFAULT_CLAMP_THRESHOLD`] and a 2μ restoring spring (see the module docs).
+    /// clamped below [`DEFAULT_CLAMP_THRESHOLD`], a 2μ restoring spring and a 2μ push (see the
+    /// module docs).
     pub fn clamped(lame: Lame) -> Clamped<Self> {
         Clamped {
             model: Self::new(lame),
-            clamp: StretchClamp {
-                threshold: DEFAULT_CLAMP_THRESHOLD,
-                stiffness: 2.0 * lame.mu,
-                push: 2.0 * lame.mu,
-            },
+            clamp: StretchClamp::with_shear_modulus(DEFAULT_CLAMP_THRESHOLD, lame.mu),
         }
     }
 

@@ -22,8 +22,9 @@
 //! [`super::clamp`]): `Ψ̂(σ) = Ψ̂_NH(c(σ₁), c(σ₂), c(σ₃)) + Σ R(σₖ)`. c clamps each stretch onto
 //! the floor ¾ε through a C² window, so the whole Neo-Hookean energy, its volume term included,
 //! sees a collapsed or inverted stretch as ¾ε; R (a spring k = 2μ and a push Q = 2μ) restores
-//! what the clamp takes away. This file keeps Neo-Hookean's own closed forms for the pair
-//! eigenvalues; the clamp's c and R come from [`StretchClamp`].
+//! what the clamp takes away. It is [`NeoHookean::clamped`]: this model inside the generic
+//! [`Clamped`], with the continuation's threshold at the clamp's floor so that the wrapped
+//! model is the analytic one for every stretch it sees.
 //!
 //! **Why two** (issue 6). A tet flattened onto a plane keeps stretching in its plane until its
 //! volume term balances: with L fed by the collapsed stretch, a flat tet wants σ₁σ₂ ≈ 1/σ₃. The
@@ -54,7 +55,7 @@
 //! the default and the clamp is the model for tangled starts.
 
 use super::Lame;
-use super::clamp::StretchClamp;
+use super::clamp::{Clamped, StretchClamp};
 use super::isotropic::{Derivatives, Isotropic, PAIRS, guarded_quotient};
 use crate::math::{Mat3, Vec3};
 
@@ -65,49 +66,43 @@ use crate::math::{Mat3, Vec3};
 /// model further into compression.
 pub const DEFAULT_INVERSION_THRESHOLD: f64 = 0.6;
 
-/// Relative gap below which divided differences of the extended terms use the midpoint
-/// derivative (error ~gap², below rounding) instead of the quotient (error ~ε_machine/gap).
+/// Relative gap below which divided differences of ℓ' use the midpoint derivative (error
+/// ~gap², below rounding) instead of the quotient (error ~ε_machine/gap).
 const NEAR: f64 = 1e-4;
-
-/// How the model is extended below the stretch threshold (see the module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Inversion {
-    /// `neo-hookean`: ln continued smoothly and levelling off, plus a cubic restoring term. Newton
-    /// converges well under crushing; a few tangled starts stay folded.
-    Continuation,
-    /// `neo-hookean-clamped`: every stretch clamped onto a floor, plus a linear restoring
-    /// spring. Recovers tangled starts; harder for Newton where many tets are crushed flat.
-    Clamp,
-}
 
 /// Neo-Hookean in principal stretches (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NeoHookean {
     /// Lamé parameters.
     pub lame: Lame,
-    /// The stretch threshold ε of the inversion handling.
+    /// The stretch threshold ε of the continuation.
     pub threshold: f64,
-    /// The extension below ε.
-    pub inversion: Inversion,
 }
 
 impl NeoHookean {
-    /// The continuation with the default inversion threshold.
+    /// With the default inversion threshold (`neo-hookean`).
     pub fn new(lame: Lame) -> Self {
-        Self::with_inversion(lame, Inversion::Continuation, DEFAULT_INVERSION_THRESHOLD)
+        Self::with_threshold(lame, DEFAULT_INVERSION_THRESHOLD)
     }
 
-    /// The clamp with the default inversion threshold.
-    pub fn clamped(lame: Lame) -> Self {
-        Self::with_inversion(lame, Inversion::Clamp, DEFAULT_INVERSION_THRESHOLD)
+    /// With a given inversion threshold (a stretch in (0, 1)).
+    pub fn with_threshold(lame: Lame, threshold: f64) -> Self {
+        NeoHookean { lame, threshold }
     }
 
-    /// A given extension and inversion threshold (a stretch in (0, 1)).
-    pub fn with_inversion(lame: Lame, inversion: Inversion, threshold: f64) -> Self {
-        NeoHookean {
-            lame,
-            threshold,
-            inversion,
+    /// `neo-hookean-clamped`: the model behind a clamp at the default threshold.
+    pub fn clamped(lame: Lame) -> Clamped<Self> {
+        Self::clamped_with_threshold(lame, DEFAULT_INVERSION_THRESHOLD)
+    }
+
+    /// The model behind a clamp of the stretches below `threshold`, with a 2μ spring and push.
+    /// The continuation's own threshold sits at the clamp's floor, so the wrapped model is the
+    /// analytic one for every stretch the clamp lets through.
+    pub fn clamped_with_threshold(lame: Lame, threshold: f64) -> Clamped<Self> {
+        let clamp = StretchClamp::with_shear_modulus(threshold, lame.mu);
+        Clamped {
+            model: Self::with_threshold(lame, clamp.floor()),
+            clamp,
         }
     }
 
@@ -144,14 +139,14 @@ impl NeoHookean {
         if s >= e {
             return (0.0, 0.0, 0.0);
         }
-        let (k, d) = (self.continuation_restoring(), e - s);
+        let (k, d) = (self.restoring(), e - s);
         (k * d * d * d / (3.0 * e), -k * d * d / e, 2.0 * k * d / e)
     }
 
     /// (R'(a) − R'(b))/(a − b), in closed form per branch (exact at a = b).
     fn collapse_divided_difference(&self, a: f64, b: f64) -> f64 {
         let (a, b) = if a >= b { (a, b) } else { (b, a) };
-        let (e, k) = (self.threshold, self.continuation_restoring());
+        let (e, k) = (self.threshold, self.restoring());
         if b >= e {
             0.0
         } else if a < e {
@@ -162,13 +157,13 @@ impl NeoHookean {
         }
     }
 
-    /// k of the continuation's restoring term: the P-wave modulus λ + 2μ.
-    fn continuation_restoring(&self) -> f64 {
+    /// k of the restoring term: the P-wave modulus λ + 2μ.
+    fn restoring(&self) -> f64 {
         self.lame.lambda + 2.0 * self.lame.mu
     }
 
-    /// The continuation (every σ; above ε it is the analytic model term by term).
-    fn continued(&self, s: &Vec3) -> Derivatives {
+    /// Ψ̂, p, H and the pair eigenvalues at σ, sharing L and the logarithms.
+    fn all(&self, s: &Vec3) -> Derivatives {
         let Lame { mu, lambda } = self.lame;
         let logs = [self.log(s[0]), self.log(s[1]), self.log(s[2])];
         let r = [
@@ -202,123 +197,6 @@ impl NeoHookean {
                 guarded_quotient(d1[a] + d1[b], sa + sb)
             };
             pair_skew[n] = mu + c * log_sum + guarded_quotient(r[a].1 + r[b].1, sa + sb);
-        }
-        Derivatives {
-            psi,
-            p,
-            h,
-            pair_sym,
-            pair_skew,
-        }
-    }
-
-    /// k of the restoring spring: 2μ, the stiffness of corotated's deviatoric term.
-    fn clamp_restoring(&self) -> f64 {
-        2.0 * self.lame.mu
-    }
-
-    /// The clamp of one stretch and its spring.
-    fn clamp(&self) -> StretchClamp {
-        StretchClamp {
-            threshold: self.threshold,
-            stiffness: self.clamp_restoring(),
-            push: 2.0 * self.lame.mu,
-        }
-    }
-
-    /// Ψ̂, p, H and the pair eigenvalues at σ, sharing L and the logarithms.
-    fn all(&self, s: &Vec3) -> Derivatives {
-        match self.inversion {
-            Inversion::Continuation => self.continued(s),
-            Inversion::Clamp if s.min() >= self.threshold => self.analytic(s),
-            Inversion::Clamp => self.clamped_model(s),
-        }
-    }
-
-    /// The analytic Neo-Hookean, every σ ≥ ε.
-    fn analytic(&self, s: &Vec3) -> Derivatives {
-        let Lame { mu, lambda } = self.lame;
-        let l = s[0].ln() + s[1].ln() + s[2].ln();
-        let a = lambda * l - mu;
-        let psi = 0.5 * mu * (s.norm_squared() - 3.0) - mu * l + 0.5 * lambda * l * l;
-        let d1 = s.map(|x| 1.0 / x);
-        let p = Vec3::from_fn(|k, _| mu * s[k] + a * d1[k]);
-        let mut h = lambda * d1 * d1.transpose();
-        for k in 0..3 {
-            h[(k, k)] += mu + a * (-1.0 / (s[k] * s[k]));
-        }
-        let mut pair_sym = Vec3::zeros();
-        let mut pair_skew = Vec3::zeros();
-        for (n, &(i, j)) in PAIRS.iter().enumerate() {
-            // (pᵢ ∓ pⱼ)/(σᵢ ∓ σⱼ) = μ ∓ (λL − μ)/(σᵢσⱼ), no division by σᵢ ∓ σⱼ.
-            let inv = 1.0 / (s[i] * s[j]);
-            pair_sym[n] = mu + a * (-inv);
-            pair_skew[n] = mu + a * inv;
-        }
-        Derivatives {
-            psi,
-            p,
-            h,
-            pair_sym,
-            pair_skew,
-        }
-    }
-
-    /// The clamp-and-spring model, some σ < ε.
-    fn clamped_model(&self, s: &Vec3) -> Derivatives {
-        let Lame { mu, lambda } = self.lame;
-        let e = self.threshold;
-        let clamp = self.clamp();
-        let m = [clamp.at(s[0]), clamp.at(s[1]), clamp.at(s[2])];
-        let c = Vec3::new(m[0].c, m[1].c, m[2].c);
-        let l = c[0].ln() + c[1].ln() + c[2].ln();
-        let a = lambda * l - mu;
-        let psi = 0.5 * mu * (c.norm_squared() - 3.0) - mu * l
-            + 0.5 * lambda * l * l
-            + m.iter().map(|m| m.r).sum::<f64>();
-        // q = ∂Ψ̂_NH/∂c; p = c′q + R′.
-        let q = Vec3::from_fn(|i, _| mu * c[i] + a / c[i]);
-        let p = Vec3::from_fn(|i, _| m[i].c1 * q[i] + m[i].r1);
-        let mut h = Mat3::zeros();
-        for i in 0..3 {
-            for j in 0..3 {
-                h[(i, j)] = lambda * m[i].c1 * m[j].c1 / (c[i] * c[j]);
-            }
-            let qii = mu - a / (c[i] * c[i]);
-            h[(i, i)] += m[i].c1 * m[i].c1 * qii + m[i].c2 * q[i] + m[i].r2;
-        }
-        let mut pair_sym = Vec3::zeros();
-        let mut pair_skew = Vec3::zeros();
-        for (n, &(i, j)) in PAIRS.iter().enumerate() {
-            let (si, sj) = (s[i], s[j]);
-            if si >= e && sj >= e {
-                let inv = 1.0 / (si * sj);
-                pair_sym[n] = mu + a * (-inv);
-                pair_skew[n] = mu + a * inv;
-                continue;
-            }
-            // pₖ = μ·(cc′)ₖ + (λL − μ)·(c′/c)ₖ − k·(c − σ)ₖ: divided differences of the three
-            // one-stretch functions, by the quotient or, at a tiny gap, the midpoint derivative.
-            let (dd_cc1, dd_c1_c, dd_c, dd_c1) = if (si - sj).abs() <= NEAR * e {
-                let mid = clamp.at(0.5 * (si + sj));
-                (
-                    mid.c1 * mid.c1 + mid.c * mid.c2,
-                    mid.c2 / mid.c - mid.c1 * mid.c1 / (mid.c * mid.c),
-                    mid.c1,
-                    mid.c2,
-                )
-            } else {
-                let gap = si - sj;
-                (
-                    (c[i] * m[i].c1 - c[j] * m[j].c1) / gap,
-                    (m[i].c1 / c[i] - m[j].c1 / c[j]) / gap,
-                    (c[i] - c[j]) / gap,
-                    (m[i].c1 - m[j].c1) / gap,
-                )
-            };
-            pair_sym[n] = mu * dd_cc1 + a * dd_c1_c + clamp.spring_divided_difference(dd_c, dd_c1);
-            // The rotation-variant energy has its genuine pole at σᵢ = −σⱼ, guarded.
-            pair_skew[n] = guarded_quotient(p[i] + p[j], si + sj);
         }
         Derivatives {
             psi,
