@@ -12,87 +12,15 @@
 //! first, dump=FILE, dumpat=N dumpstate=FILE, loadstate=FILE, switch=N model2=co (change the
 //! material at frame N). Runs end early once settled; "recovered" means < 0.05 mean edges
 //! from rest after rigid alignment, as in tests/simulate.rs.
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{Collapse, carved_ball, rigid_distance};
 use tetsim::boundary::Boundary;
 use tetsim::integrator::SolverParams;
 use tetsim::material::{Corotated, Invertible, NeoHookean};
 use tetsim::math::svd_rv;
-use tetsim::{Definiteness, ElasticBody, Lame, Mat3, Model, Simulation, State, TetMesh, Vec3};
-
-fn uniform(r: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
-    r.random_range(lo..hi)
-}
-
-fn collapse(kind: &str, rest: &[Vec3], jitter: f64, seed: u64) -> Vec<Vec3> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let c = rest.iter().sum::<Vec3>() / rest.len() as f64;
-    let (lo, hi) = tetsim::mesh::bounding_box(rest);
-    let size = (hi - lo).norm();
-    let d = Vec3::new(1.0, 2.0, 3.0).normalize();
-    let mut x: Vec<Vec3> = rest
-        .iter()
-        .map(|p| match kind {
-            "plane" => p - d * (p - c).dot(&d),
-            "line" => c + d * (p - c).dot(&d),
-            "point" => c,
-            _ => {
-                c + 0.125
-                    * size
-                    * Vec3::new(
-                        uniform(&mut rng, -1.0, 1.0),
-                        uniform(&mut rng, -1.0, 1.0),
-                        uniform(&mut rng, -1.0, 1.0),
-                    )
-            }
-        })
-        .collect();
-    if jitter > 0.0 {
-        for p in &mut x {
-            *p += jitter
-                * Vec3::new(
-                    uniform(&mut rng, -1.0, 1.0),
-                    uniform(&mut rng, -1.0, 1.0),
-                    uniform(&mut rng, -1.0, 1.0),
-                );
-        }
-    }
-    x
-}
-
-fn rigid_distance(rest: &[Vec3], x: &[Vec3]) -> f64 {
-    let n = rest.len() as f64;
-    let (cr, cx) = (rest.iter().sum::<Vec3>() / n, x.iter().sum::<Vec3>() / n);
-    let h: Mat3 = rest
-        .iter()
-        .zip(x)
-        .map(|(r, p)| (p - cx) * (r - cr).transpose())
-        .sum();
-    let svd = h.svd(true, true);
-    let (u, v_t) = (svd.u.unwrap(), svd.v_t.unwrap());
-    let smallest = svd.singular_values.imin();
-    let mut d = Mat3::identity();
-    d[(smallest, smallest)] = (u * v_t).determinant().signum();
-    let rotation = u * d * v_t;
-    rest.iter()
-        .zip(x)
-        .map(|(r, p)| (cx + rotation * (r - cr) - p).norm())
-        .fold(0.0, f64::max)
-}
-
-fn carved_ball(radius: f64, cells: usize) -> TetMesh {
-    let mut mesh =
-        tetsim::mesh::generate::box_mesh(Vec3::repeat(-radius), Vec3::repeat(radius), [cells; 3]);
-    let x = mesh.positions.clone();
-    mesh.tets.retain(|t| {
-        let c = t.iter().map(|&v| x[v]).sum::<Vec3>() / 4.0;
-        c.norm() < radius
-    });
-    mesh.groups.clear();
-    mesh.drop_unreferenced_vertices();
-    mesh.vertex_ids = None;
-    mesh
-}
+use tetsim::{Definiteness, ElasticBody, Lame, Mat3, Model, Simulation, State, Vec3};
 
 fn inside(p: &Vec3, t: &[Vec3; 4]) -> bool {
     let ds = Mat3::from_columns(&[t[1] - t[0], t[2] - t[0], t[3] - t[0]]);
@@ -124,7 +52,7 @@ fn main() {
             .unwrap_or(opts.get("mesh").cloned().unwrap_or("beam".into()));
         for mesh in meshes.split(',') {
             for seed in seeds.split(',') {
-                for start in ["plane", "line", "point", "scrambled"] {
+                for start in Collapse::ALL.map(Collapse::name) {
                     for jitter in ["0", "1"] {
                         if jitter == "0" && seed != "7" && start != "scrambled" {
                             continue;
@@ -212,12 +140,12 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
     } else {
         0.0
     };
-    let x0 = collapse(
-        &get("start", "line"),
-        &mesh.positions,
-        jitter,
-        get("seed", "7").parse().unwrap(),
-    );
+    let start = get("start", "line");
+    let collapse = Collapse::ALL
+        .into_iter()
+        .find(|c| c.name() == start)
+        .unwrap_or_else(|| panic!("start={start}: plane, line, point or scrambled"));
+    let x0 = collapse.apply(&mesh.positions, jitter, get("seed", "7").parse().unwrap());
     let body = ElasticBody::new(mesh.clone(), model, 1000.0).unwrap();
     let n = x0.len();
     let mut initial = State {
