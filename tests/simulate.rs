@@ -1003,20 +1003,8 @@ fn recover_with(
     mut go_on: impl FnMut(usize, f64) -> bool,
 ) -> f64 {
     let edge = mesh.mean_edge_length();
-    let x0 = collapse.apply(&mesh.positions, if jitter { 1e-3 * edge } else { 0.0 }, 7);
-    let model = Model::new(kind, Lame::from_young_poisson(1e5, 0.3));
-    let body = ElasticBody::new(mesh.clone(), model, 1000.0).unwrap();
-    let initial = State {
-        v: vec![Vec3::zeros(); x0.len()],
-        x: x0,
-        t: 0.0,
-    };
-    let params = SolverParams {
-        frames,
-        rayleigh_stiffness: 0.02,
-        ..Default::default()
-    };
-    let mut sim = Simulation::new(body, Boundary::default(), params, initial).unwrap();
+    let jitter = if jitter { 1e-3 * edge } else { 0.0 };
+    let mut sim = collapsed_body(mesh.clone(), kind, collapse, jitter, frames);
     let distance = |sim: &Simulation| rigid_distance(&sim.body.mesh.positions, &sim.state.x) / edge;
     while !sim.is_finished() {
         let stats = sim.step().unwrap();
@@ -1034,6 +1022,31 @@ fn recover_with(
         }
     }
     distance(&sim)
+}
+
+/// A free body (no gravity, nothing fixed, E = 100 kPa, ν = 0.3, γ = 0.02 s) started from
+/// `collapse` with `jitter` (m), seed 7, for `frames` frames at 30 fps.
+fn collapsed_body(
+    mesh: TetMesh,
+    kind: ModelKind,
+    collapse: Collapse,
+    jitter: f64,
+    frames: usize,
+) -> Simulation {
+    let x0 = collapse.apply(&mesh.positions, jitter, 7);
+    let model = Model::new(kind, Lame::from_young_poisson(1e5, 0.3));
+    let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
+    let initial = State {
+        v: vec![Vec3::zeros(); x0.len()],
+        x: x0,
+        t: 0.0,
+    };
+    let params = SolverParams {
+        frames,
+        rayleigh_stiffness: 0.02,
+        ..Default::default()
+    };
+    Simulation::new(body, Boundary::default(), params, initial).unwrap()
 }
 
 /// [`recover`], stopping early once the body has been within a fifth of [`RECOVERED`] of its
@@ -1125,20 +1138,7 @@ fn amg_is_rebuilt_when_cg_runs_into_its_cap() {
     // Rebuilt after the capped solve, the rest of the first frame takes a few iterations each.
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/ball.node");
     let mesh = tetsim::io::read_mesh(&fixture).unwrap().mesh;
-    let x0 = Collapse::Line.apply(&mesh.positions, 0.0, 7);
-    let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e5, 0.3));
-    let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
-    let initial = State {
-        v: vec![Vec3::zeros(); x0.len()],
-        x: x0,
-        t: 0.0,
-    };
-    let params = SolverParams {
-        frames: 1,
-        rayleigh_stiffness: 0.02,
-        ..Default::default()
-    };
-    let mut sim = Simulation::new(body, Boundary::default(), params, initial).unwrap();
+    let mut sim = collapsed_body(mesh, ModelKind::NeoHookean, Collapse::Line, 0.0, 1);
     let stats = sim.step().unwrap();
     assert!(stats.converged, "{stats:?}");
     assert_eq!(stats.substeps, 1, "{stats:?}");
