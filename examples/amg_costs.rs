@@ -7,14 +7,14 @@
 use std::time::Instant;
 
 use tetsim::Vec3;
-use tetsim::amg::{Amg, AmgParams};
-use tetsim::cg::{
+use tetsim::elastic::{AssemblyWork, ElasticBody};
+use tetsim::linear::amg::{Amg, AmgParams};
+use tetsim::linear::cg::{
     CgParams, CgWorkspace, Jacobi, LinearOperator, Preconditioner, conjugate_gradient,
 };
-use tetsim::elastic::{AssemblyWork, ElasticBody};
+use tetsim::linear::sparse::BlockCsr;
 use tetsim::material::{Definiteness, Lame, Model, ModelKind};
 use tetsim::mesh::generate::box_mesh;
-use tetsim::sparse::BlockCsr;
 
 struct Assembled<'a>(&'a BlockCsr);
 

@@ -9,15 +9,20 @@
 //!   u), f → K·u (against the quotient of −f), and K·u matrix-free against the assembled matrix,
 //!   at any list of states.
 //!
-//! `tetsim check [SCENE]` runs both on a scene's material and body; the tests run it on every
+//! - step level, [`check_terms`]: every term of the incremental potential (inertia, elasticity,
+//!   loads, and whatever joins them) alone: Φ_term → f_term, f_term → H_term·u, and a block
+//!   term's product against its assembly.
+//!
+//! `tetsim check [SCENE]` runs all three on a scene's material, body and step; the tests run it on every
 //! model and on a deliberately wrong one, which must fail.
 
 use std::fmt;
 
 use crate::elastic::{AssemblyWork, ElasticBody};
+use crate::integrator::{HessianShape, IncrementalPotential, SolverParams, StepContext, StepKind};
+use crate::linear::sparse::BlockCsr;
 use crate::material::{Definiteness, Material};
 use crate::math::{Mat3, Vec3, svd_rv};
-use crate::sparse::BlockCsr;
 
 /// Step sizes of the sweep, relative to the scale of the argument (‖F‖ ~ 1, the mean edge length
 /// for positions). Central differences reach their best near 1e-5 (truncation against rounding).
@@ -565,4 +570,161 @@ pub fn check_simulation(body: &ElasticBody, initial: &[Vec3], params: &CheckPara
         params,
     ));
     CheckReport { rows }
+}
+
+/// Every term of the incremental potential of a backward-Euler step of `dt` from `initial`
+/// (with a random velocity, gravity and the scene's settings, damping left out: its force has
+/// no potential): energy → force, force → Hessian·u (the exact Hessian), and for block terms the
+/// Hessian product against the assembled Hessian, each at [`body_states`]. Linear terms
+/// (loads) must show a zero force differential.
+pub fn check_terms(
+    body: &ElasticBody,
+    initial: &[Vec3],
+    solver: &SolverParams,
+    gravity: Vec3,
+    params: &CheckParams,
+) -> Vec<CheckRow> {
+    let n = body.vertex_count();
+    let mut rng = SplitMix::new(params.seed.wrapping_add(53));
+    let edge = body.mesh.mean_edge_length();
+    let h = solver.dt;
+    let mut solver = solver.clone();
+    solver.rayleigh_stiffness = 0.0;
+    solver.definiteness = Definiteness::Exact;
+    let xn = initial.to_vec();
+    let vn: Vec<Vec3> = (0..n).map(|_| 0.1 * edge / h * rng.vector()).collect();
+    let f_ext: Vec<Vec3> = body.masses().iter().map(|&m| m * gravity).collect();
+    let free = vec![Vec3::repeat(1.0); n];
+    let ctx = StepContext {
+        body,
+        kind: StepKind::Dynamic {
+            xn: &xn,
+            vn: &vn,
+            h,
+        },
+        f_ext: &f_ext,
+        free: &free,
+        params: &solver,
+    };
+    let mut potential = IncrementalPotential::new(body, &solver);
+    let names = potential.term_names();
+    let force_floor = 1e-6 * body.force_scale();
+    let mut partials = vec![0.0; n.div_ceil(1024).max(1)];
+    let mut rows = Vec::new();
+    for (label, x) in body_states(body, initial, params.seed) {
+        for (k, name) in names.iter().enumerate() {
+            let row = |check: &'static str, tolerance: f64| CheckRow {
+                check,
+                state: format!("{name}, {label}"),
+                cases: 0,
+                skipped: 0,
+                relative_error: 0.0,
+                step: 0.0,
+                tolerance,
+            };
+            let mut energy_row = row("term Φ → f", params.fd_tolerance);
+            let mut force_row = row("term f → H·u", params.fd_tolerance);
+            let mut assembled_row = row("term H·u vs assembled", params.assembly_tolerance);
+            // Energy and force of term k alone at y.
+            let mut eval =
+                |potential: &mut IncrementalPotential, y: &[Vec3], force: &mut [Vec3]| {
+                    let v: Vec<Vec3> = y.iter().zip(&xn).map(|(y, xn)| (y - xn) / h).collect();
+                    force.iter_mut().for_each(|f| *f = Vec3::zeros());
+                    let term = potential.terms_mut().nth(k).expect("k < terms");
+                    term.evaluate(&ctx, y, &v, force, &mut partials)
+                };
+            let mut f = vec![Vec3::zeros(); n];
+            eval(&mut potential, &x, &mut f);
+            let (mut fp, mut fm) = (vec![Vec3::zeros(); n], vec![Vec3::zeros(); n]);
+            for _ in 0..params.directions {
+                let u: Vec<Vec3> = (0..n).map(|_| rng.vector()).collect();
+                let u_norm = flatten(&u).iter().map(|c| c * c).sum::<f64>().sqrt();
+                let analytic = [-f.iter().zip(&u).map(|(f, u)| f.dot(u)).sum::<f64>()];
+                let (e, step) = best_relative_error(&analytic, edge, force_floor * u_norm, |t| {
+                    let mut scratch = vec![Vec3::zeros(); n];
+                    let plus = eval(&mut potential, &axpy(&x, t, &u), &mut scratch);
+                    let minus = eval(&mut potential, &axpy(&x, -t, &u), &mut scratch);
+                    vec![(plus - minus) / (2.0 * t)]
+                });
+                worst(&mut energy_row, e, step);
+                energy_row.cases += 1;
+                // H·u at x: re-evaluate (linearize) at x first.
+                eval(&mut potential, &x, &mut f);
+                let hu = hessian_product(&mut potential, k, &ctx, &u, false);
+                let (e, step) = best_relative_error(&flatten(&hu), edge, force_floor / edge, |t| {
+                    eval(&mut potential, &axpy(&x, t, &u), &mut fp);
+                    eval(&mut potential, &axpy(&x, -t, &u), &mut fm);
+                    fp.iter()
+                        .zip(&fm)
+                        .flat_map(|(p, m)| {
+                            ((m - p) / (2.0 * t)).iter().copied().collect::<Vec<_>>()
+                        })
+                        .collect()
+                });
+                worst(&mut force_row, e, step);
+                force_row.cases += 1;
+                eval(&mut potential, &x, &mut f);
+                let term = potential.terms_mut().nth(k).expect("k < terms");
+                if term.hessian_shape(&ctx) == HessianShape::Blocks {
+                    let assembled = hessian_product(&mut potential, k, &ctx, &u, true);
+                    let (a, b) = (flatten(&hu), flatten(&assembled));
+                    let norm = |v: &[f64]| v.iter().map(|c| c * c).sum::<f64>().sqrt();
+                    let diff: Vec<f64> = a.iter().zip(&b).map(|(a, b)| a - b).collect();
+                    let e = norm(&diff) / norm(&a).max(norm(&b)).max(force_floor / edge);
+                    worst(&mut assembled_row, e, 0.0);
+                    assembled_row.cases += 1;
+                }
+            }
+            rows.extend([energy_row, force_row]);
+            if assembled_row.cases > 0 {
+                rows.push(assembled_row);
+            }
+        }
+    }
+    rows
+}
+
+/// H·u of term k at its last evaluation: by its product, its lumped diagonal, or (`assembled`)
+/// through a block matrix it was assembled into.
+fn hessian_product(
+    potential: &mut IncrementalPotential,
+    k: usize,
+    ctx: &StepContext<'_>,
+    u: &[Vec3],
+    assembled: bool,
+) -> Vec<Vec3> {
+    let n = u.len();
+    let mut out = vec![Vec3::zeros(); n];
+    let pattern = potential.elasticity.pattern().clone();
+    let term = potential.terms_mut().nth(k).expect("k < terms");
+    match term.hessian_shape(ctx) {
+        HessianShape::Zero => {}
+        HessianShape::LumpedDiagonal => {
+            let mut d = vec![0.0; n];
+            term.add_lumped_diagonal(ctx, &mut d);
+            out.iter_mut()
+                .zip(d.iter().zip(u))
+                .for_each(|(o, (&d, u))| *o = d * u);
+        }
+        HessianShape::Blocks if assembled => {
+            let mut extra = Vec::new();
+            term.extra_blocks(&mut extra);
+            let mut rows: Vec<Vec<u32>> = (0..n)
+                .map(|i| pattern.cols[pattern.row(i)].to_vec())
+                .collect();
+            for (i, j) in extra {
+                rows[i as usize].push(j);
+                rows[j as usize].push(i);
+            }
+            rows.iter_mut().for_each(|r| {
+                r.sort_unstable();
+                r.dedup()
+            });
+            let mut a = BlockCsr::zeros(crate::linear::sparse::BlockPattern::from_rows(&rows));
+            term.add_to_matrix(ctx, &mut a);
+            a.multiply(u, &mut out);
+        }
+        HessianShape::Blocks => term.add_hessian_product(ctx, u, &mut out),
+    }
+    out
 }

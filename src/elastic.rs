@@ -15,10 +15,10 @@
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::linear::sparse::{BlockCsr, BlockPattern};
 use crate::material::{Definiteness, DiagonalPieces, Model, Tangent};
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
-use crate::sparse::{BlockCsr, BlockPattern};
 
 /// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
 /// are the same on any machine.
@@ -533,8 +533,10 @@ fn upper_index(a: usize, b: usize) -> usize {
 #[derive(Clone, Debug, Default)]
 pub struct AssemblyWork {
     /// For each tet and (a, b), the position of block (tet[a], tet[b]) within row tet[a].
-    local: Vec<[u8; 16]>,
+    local: Vec<[u16; 16]>,
     elements: Vec<[Mat3; 10]>,
+    /// The pattern `local` was computed for (contact may change the matrix's pattern).
+    pattern: BlockPattern,
 }
 
 impl ElasticBody {
@@ -544,9 +546,7 @@ impl ElasticBody {
     }
 
     /// Assemble `A = k_scale·K + m_scale·M` (K from the tangents in `lin`, M the lumped mass)
-    /// into `a`, whose pattern must be [`ElasticBody::stiffness_pattern`]. Element matrices are
-    /// computed per tet in parallel, then every row gathers its blocks in tet order: the same
-    /// bits for any thread count.
+    /// into `a` (overwritten), whose pattern must hold [`ElasticBody::stiffness_pattern`].
     pub fn assemble_system(
         &self,
         lin: &Linearization,
@@ -555,20 +555,39 @@ impl ElasticBody {
         a: &mut BlockCsr,
         work: &mut AssemblyWork,
     ) {
+        a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
+        self.add_stiffness(lin, k_scale, a, work);
+        let diagonal: Vec<f64> = self.mass.iter().map(|m| m_scale * m).collect();
+        a.add_diagonal(&diagonal);
+    }
+
+    /// `a += scale·K` (K from the tangents in `lin`); `a`'s pattern must hold
+    /// [`ElasticBody::stiffness_pattern`] (it may hold more blocks). Element matrices are
+    /// computed per tet in parallel, then every row gathers its blocks in tet order: the same
+    /// bits for any thread count.
+    pub fn add_stiffness(
+        &self,
+        lin: &Linearization,
+        scale: f64,
+        a: &mut BlockCsr,
+        work: &mut AssemblyWork,
+    ) {
         assert_eq!(a.rows(), self.vertex_count());
         let tets = &self.mesh.tets;
-        if work.local.len() != tets.len() {
+        if work.local.len() != tets.len() || work.pattern != a.pattern {
             work.local = tets
                 .iter()
                 .map(|tet| {
                     std::array::from_fn(|ab| {
                         let (row, col) = (tet[ab / 4], tet[ab % 4]);
-                        let k = a.pattern.find(row, col).expect("pattern from this mesh");
-                        (k - a.pattern.row(row).start) as u8
+                        let k = a.pattern.find(row, col).expect("pattern holds the mesh's");
+                        u16::try_from(k - a.pattern.row(row).start)
+                            .expect("a row of fewer than 65,536 blocks")
                     })
                 })
                 .collect();
             work.elements = vec![[Mat3::zeros(); 10]; tets.len()];
+            work.pattern.clone_from(&a.pattern);
         }
         work.elements
             .par_iter_mut()
@@ -576,12 +595,10 @@ impl ElasticBody {
             .with_min_len(CHUNK)
             .for_each(|(t, e)| {
                 *e = element_stiffness(&lin.tangents[t], &self.bm[t], self.volume[t]);
-                e.iter_mut().for_each(|b| *b *= k_scale);
+                e.iter_mut().for_each(|b| *b *= scale);
             });
-        let (inc, local, elements, masses) =
-            (&self.incidence, &work.local, &work.elements, &self.mass);
-        a.for_each_row_mut(|i, cols, row| {
-            row.iter_mut().for_each(|b| *b = Mat3::zeros());
+        let (inc, local, elements) = (&self.incidence, &work.local, &work.elements);
+        a.for_each_row_mut(|i, _cols, row| {
             for &slot in &inc.slots[inc.offsets[i] as usize..inc.offsets[i + 1] as usize] {
                 let (t, corner) = (slot as usize / 4, slot as usize % 4);
                 for b in 0..4 {
@@ -593,10 +610,6 @@ impl ElasticBody {
                     row[local[t][4 * corner + b] as usize] += block;
                 }
             }
-            let d = cols
-                .binary_search(&(i as u32))
-                .expect("the pattern holds the diagonal");
-            row[d] += Mat3::from_diagonal_element(m_scale * masses[i]);
         });
     }
 }

@@ -52,19 +52,16 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
-pub mod amg;
 pub mod audit;
 pub mod bench;
 pub mod boundary;
-pub mod cg;
 pub mod check;
 pub mod diagnose;
-#[cfg(feature = "direct")]
-pub mod direct;
 pub mod elastic;
 pub mod error;
 pub mod integrator;
 pub mod io;
+pub mod linear;
 pub mod manifest;
 pub mod material;
 pub mod math;
@@ -74,7 +71,6 @@ pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod sim;
-pub mod sparse;
 
 pub use elastic::{ElasticBody, Linearization};
 pub use error::{Error, MeshProblem, Result};

@@ -689,7 +689,7 @@ impl Scene {
             rayleigh_mass: s.rayleigh_mass,
             newton_tolerance: s.newton_tolerance,
             newton_max_iterations: s.newton_max_iterations,
-            cg: crate::cg::CgParams {
+            cg: crate::linear::cg::CgParams {
                 tolerance: s.cg_tolerance,
                 max_iterations: s.cg_max_iterations,
             },
@@ -708,7 +708,7 @@ impl Scene {
                     PreconditionerKind::Amg
                 }
             },
-            amg: crate::amg::AmgParams::default(),
+            amg: crate::linear::amg::AmgParams::default(),
             line_search: s.line_search,
             inexact_newton: s.inexact_newton,
             f32_matrix: s.f32_matrix,

@@ -19,7 +19,9 @@ use crate::audit::{Ledger, StepRecord, audit_step};
 use crate::boundary::{Boundary, Clock};
 use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
-use crate::integrator::{Integrator, Newton, OnFailure, SolverParams, StepKind, StepStats};
+use crate::integrator::{
+    Integrator, Newton, OnFailure, SolverParams, StepContext, StepKind, StepStats,
+};
 use crate::math::Vec3;
 use crate::mesh::ordering::Renumbering;
 
@@ -174,7 +176,7 @@ impl Simulation {
     /// The sparse Cholesky preconditioner's costs and counts (factorizations, failures, fill),
     /// when the scene uses it.
     #[cfg(feature = "direct")]
-    pub fn cholesky_info(&self) -> Option<&crate::direct::CholeskyInfo> {
+    pub fn cholesky_info(&self) -> Option<&crate::linear::direct::CholeskyInfo> {
         self.newton.cholesky_info()
     }
 
@@ -266,6 +268,34 @@ impl Simulation {
         Ok(stats)
     }
 
+    /// Run every remaining frame, writing each into `recorder` (frame 0 first, when the recorder
+    /// has written nothing yet) and handing it to `on_frame`. Stops at the first error (a frame
+    /// that failed under the failure policy, or a file that could not be written); the frames
+    /// written so far stay valid.
+    pub fn run_with(
+        &mut self,
+        recorder: &mut crate::output::Recorder,
+        mut on_frame: impl FnMut(&Simulation, &StepStats),
+    ) -> Result<()> {
+        if recorder.frame_files().is_empty() {
+            recorder.write_frame(self, None)?;
+        }
+        while !self.is_finished() {
+            let stats = self.step()?;
+            recorder.write_frame(self, Some(&stats))?;
+            on_frame(self, &stats);
+        }
+        Ok(())
+    }
+
+    /// Run every remaining frame into `recorder` (see [`Simulation::run_with`]) and return the
+    /// frames' statistics.
+    pub fn run(&mut self, recorder: &mut crate::output::Recorder) -> Result<Vec<StepStats>> {
+        let mut all = Vec::new();
+        self.run_with(recorder, |_, stats| all.push(stats.clone()))?;
+        Ok(all)
+    }
+
     /// Run `substeps` steps of the frame; returns the stats and whether the state is finite.
     fn advance(&mut self, frame: usize, substeps: usize, stop_early: bool) -> (StepStats, bool) {
         let mut stats = StepStats {
@@ -314,15 +344,16 @@ impl Simulation {
             } else {
                 StepKind::Static
             };
-            let info = self.newton.solve(
-                &self.body,
+            let ctx = StepContext {
+                body: &self.body,
                 kind,
-                &self.f_ext,
-                &self.free,
-                &self.params,
-                &mut self.state.x,
-                &mut self.state.v,
-            );
+                f_ext: &self.f_ext,
+                free: &self.free,
+                params: &self.params,
+            };
+            let info = self
+                .newton
+                .solve(&ctx, &mut self.state.x, &mut self.state.v);
             stats.absorb(&info);
             self.state.t = t;
             let finite = self

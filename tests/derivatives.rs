@@ -779,7 +779,7 @@ fn assembled_stiffness_matches_matrix_free_product() {
     let mesh = tetsim::mesh::generate::box_mesh(Vec3::zeros(), Vec3::new(2.0, 1.0, 1.0), [4, 2, 2]);
     let x = perturbed(&mut rng, &mesh.positions, 0.3);
     let body = ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame()), 1000.0).unwrap();
-    let mut a = tetsim::sparse::BlockCsr::zeros(body.stiffness_pattern());
+    let mut a = tetsim::linear::sparse::BlockCsr::zeros(body.stiffness_pattern());
     let mut work = tetsim::elastic::AssemblyWork::default();
     for d in [Definiteness::Exact, Definiteness::Projected] {
         let mut lin = body.linearize(&x, d);

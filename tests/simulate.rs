@@ -9,7 +9,7 @@ use std::path::Path;
 
 use tetsim::boundary::Boundary;
 use tetsim::integrator::SolverParams;
-use tetsim::integrator::{Newton, StepKind};
+use tetsim::integrator::{Newton, StepContext, StepKind};
 use tetsim::output::Recorder;
 use tetsim::{Definiteness, Lame, Mat3, Material, Model, ModelKind, Scene, Simulation, Vec3};
 use tetsim::{ElasticBody, State, TetMesh};
@@ -216,19 +216,18 @@ fn newton_converges_quadratically_with_exact_tangent() {
         .map(|&m| m * Vec3::new(0.0, -9.81, 0.0))
         .collect();
     let mut newton = Newton::new(body, &params);
-    let info = newton.solve(
+    let ctx = StepContext {
         body,
-        StepKind::Dynamic {
+        kind: StepKind::Dynamic {
             xn: &xn,
             vn: &vn,
             h,
         },
-        &f_ext,
-        sim.free_mask(),
-        &params,
-        &mut x,
-        &mut v,
-    );
+        f_ext: &f_ext,
+        free: sim.free_mask(),
+        params: &params,
+    };
+    let info = newton.solve(&ctx, &mut x, &mut v);
     let e: Vec<f64> = info.history.iter().map(|r| r / info.history[0]).collect();
     // Once in the basin (e < 1e-2) and above rounding (e > 1e-11), each error is at most a
     // modest multiple of the square of the one before.
@@ -635,7 +634,7 @@ fn cantilever_run(
 ) -> (
     Vec<Vec3>,
     Vec<tetsim::integrator::StepStats>,
-    Option<tetsim::direct::CholeskyInfo>,
+    Option<tetsim::linear::direct::CholeskyInfo>,
 ) {
     let text = Scene::default()
         .source()
@@ -748,10 +747,10 @@ static ALLOCATOR: counting::Counting = counting::Counting;
 #[cfg(feature = "direct")]
 #[test]
 fn cholesky_apply_allocates_nothing_and_solves_the_system() {
-    use tetsim::cg::Preconditioner;
-    use tetsim::direct::Cholesky;
     use tetsim::elastic::AssemblyWork;
-    use tetsim::sparse::BlockCsr;
+    use tetsim::linear::cg::Preconditioner;
+    use tetsim::linear::direct::Cholesky;
+    use tetsim::linear::sparse::BlockCsr;
 
     let sim = Simulation::from_scene(&Scene::default()).unwrap();
     let body = &sim.body;
@@ -1280,15 +1279,14 @@ fn energy_audit_closes_and_flags_injection() {
         vn: &vn,
         h,
     };
-    let info = newton.solve(
-        &sim.body,
+    let ctx = StepContext {
+        body: &sim.body,
         kind,
-        &zeros,
-        sim.free_mask(),
-        &sim.params,
-        &mut x,
-        &mut v,
-    );
+        f_ext: &zeros,
+        free: sim.free_mask(),
+        params: &sim.params,
+    };
+    let info = newton.solve(&ctx, &mut x, &mut v);
     let boosted: Vec<Vec3> = v.iter().map(|v| 2.0 * v).collect();
     let record = |v: &[Vec3]| {
         let mut ledger = tetsim::audit::Ledger {

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use tetsim::check::{CheckParams, check_simulation};
+use tetsim::check::{CheckParams, check_simulation, check_terms};
 use tetsim::material::{Model, ModelKind};
 use tetsim::{Scene, Simulation};
 
@@ -57,7 +57,14 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
             body.vertex_count(),
             body.tet_count()
         );
-        let report = check_simulation(&body, &sim.state.x, &params);
+        let mut report = check_simulation(&body, &sim.state.x, &params);
+        report.rows.extend(check_terms(
+            &body,
+            &sim.state.x,
+            &sim.params,
+            sim.boundary.gravity,
+            &params,
+        ));
         println!("{report}\n");
         passed &= report.passed();
     }

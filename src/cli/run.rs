@@ -91,17 +91,8 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let (lo, hi) = sim.body.mesh.bounding_box();
     let body_size = (hi - lo).norm();
     let mut summary = RunSummary::default();
-    while !sim.is_finished() {
-        let stats = match sim.step() {
-            Ok(stats) => stats,
-            Err(error) => {
-                // Stop, but keep what the run produced: frames are on disk; draw them too.
-                failure = Some(error);
-                break;
-            }
-        };
-        recorder.write_frame(&sim, Some(&stats))?;
-        summary.add(&stats, sim.params.substeps);
+    let outcome = sim.run_with(&mut recorder, |sim, stats| {
+        summary.add(stats, sim.params.substeps);
         if stats.frame == 1 {
             let moved = sim
                 .state
@@ -130,8 +121,14 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             wall_seconds: stats.wall_seconds,
         });
         if sim.frame() % scene.output.gif_stride == 0 {
-            keep(&sim, &mut kept);
+            keep(sim, &mut kept);
         }
+    });
+    match outcome {
+        Ok(()) => {}
+        // Stop, but keep what the run produced: frames are on disk; draw them too.
+        Err(error @ tetsim::Error::Solve { .. }) => failure = Some(error),
+        Err(error) => return Err(error.into()),
     }
     // The last frame reached is always drawn (it is the preview).
     if kept.last().is_some_and(|k| k.0 != sim.frame()) {

@@ -3,8 +3,8 @@
 //! linearized at a bent (not rest) state.
 
 use super::*;
-use crate::cg::{CgParams, CgWorkspace, Jacobi, LinearOperator, conjugate_gradient};
 use crate::elastic::{AssemblyWork, ElasticBody};
+use crate::linear::cg::{CgParams, CgWorkspace, Jacobi, LinearOperator, conjugate_gradient};
 use crate::material::{Definiteness, Lame, Model, ModelKind};
 use crate::mesh::generate::box_mesh;
 

@@ -9,7 +9,7 @@
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
-use crate::sparse::BlockPattern;
+use crate::linear::sparse::BlockPattern;
 
 /// Rows per parallel task. Results never depend on it (rows are independent); it only sets the
 /// grain of the work split.

@@ -42,31 +42,9 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side, Spec};
 
-use crate::cg::{BlockJacobi, Preconditioner};
+use crate::linear::cg::{BlockJacobi, Preconditioner};
+use crate::linear::sparse::BlockCsr;
 use crate::math::{Mat3, Vec3};
-use crate::sparse::BlockCsr;
-
-/// When the integrator refactors (see [`crate::integrator`]'s assembled path).
-#[derive(Clone, Debug, PartialEq)]
-pub struct CholeskyParams {
-    /// Keep the factor across Newton iterations and frames, refactoring only when CG needs more
-    /// than `refactor_rate` iterations per decade of residual reduction (or after a failed
-    /// factorization, or when the constrained DOFs change). false: factor at every Newton
-    /// iterate. Default true.
-    pub reuse: bool,
-    /// Iterations per decade above which a kept factor is refreshed. A fresh factor needs one
-    /// iteration for the whole solve (about 0.1 per decade). Default 2.
-    pub refactor_rate: f64,
-}
-
-impl Default for CholeskyParams {
-    fn default() -> Self {
-        CholeskyParams {
-            reuse: true,
-            refactor_rate: 2.0,
-        }
-    }
-}
 
 /// What the factorizations cost and found.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -182,8 +160,16 @@ impl Cholesky {
         self.active == Active::Factor
     }
 
-    /// Factor `a` (symmetric, SPD for success; its pattern must not change between calls). On
-    /// failure the preconditioner becomes block Jacobi on `a`'s diagonal blocks.
+    /// Forget the symbolic analysis: the next [`Cholesky::factorize`] analyses the pattern it is
+    /// given anew (call it when the pattern of A changed; the counts in [`CholeskyInfo`] stay).
+    pub fn forget_pattern(&mut self) {
+        self.analysis = None;
+        self.active = Active::None;
+    }
+
+    /// Factor `a` (symmetric, SPD for success; its pattern must be the one analysed first, see
+    /// [`Cholesky::forget_pattern`]). On failure the preconditioner becomes block Jacobi on `a`'s
+    /// diagonal blocks.
     pub fn factorize(&mut self, a: &BlockCsr) -> Result<(), CholeskyError> {
         let analysis = self.analysis.get_or_insert_with(|| {
             let started = Instant::now();
@@ -372,8 +358,8 @@ impl Analysis {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::linear::sparse::BlockPattern;
     use crate::mesh::generate::box_mesh;
-    use crate::sparse::BlockPattern;
 
     /// A symmetric, diagonally dominant (so SPD) block matrix on a small beam's pattern; `shift`
     /// is added to the diagonal (negative makes it indefinite).

@@ -164,6 +164,17 @@ impl BlockCsr {
         rows_in_chunks(&self.pattern, 0..chunks, &mut self.values, &f);
     }
 
+    /// Add `d[i]·I` to every diagonal block (a lumped mass).
+    pub fn add_diagonal(&mut self, d: &[f64]) {
+        assert_eq!(d.len(), self.rows());
+        self.for_each_row_mut(|i, cols, row| {
+            let k = cols
+                .binary_search(&(i as u32))
+                .expect("the pattern holds the diagonal");
+            row[k] += Mat3::from_diagonal_element(d[i]);
+        });
+    }
+
     /// Project out constrained DOFs: for every component with `free = 0`, zero its row and
     /// column and put the original diagonal entry (1 if it is not positive) back, so the matrix
     /// stays SPD with the constrained DOFs decoupled.

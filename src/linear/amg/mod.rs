@@ -31,9 +31,9 @@ use std::time::Instant;
 use self::aggregate::{MODES, aggregate, strong_neighbours, tentative};
 use self::bsr::{Block, Bsr, Vector, mirror_lower, mirror_pairs, product_into, product_pattern};
 use self::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
-use crate::cg::Preconditioner;
+use crate::linear::cg::Preconditioner;
+use crate::linear::sparse::BlockCsr;
 use crate::math::Vec3;
-use crate::sparse::BlockCsr;
 
 /// Largest coarsest level (DOFs) factored densely when coarsening stalls above
 /// `max_coarse_dofs`; beyond it the coarsest level is only smoothed.

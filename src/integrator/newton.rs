@@ -1,0 +1,337 @@
+//! Newton's method on one step's incremental potential (see [`super`] for the equations).
+//!
+//! Each iterate evaluates every term at x (forces, energies, linearizations), stops when
+//! `‖rhs‖ ≤ newton_tolerance·‖rhs₀‖` over the free DOFs or below an absolute floor, else asks the
+//! linear solver for `dx = A⁻¹·rhs` (inexact: the CG tolerance follows Newton's progress), lets
+//! the definiteness policy pick the tangent, and searches along dx ([`super::line_search`]).
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::CHUNK;
+use super::params::SolverParams;
+use super::policy::TangentPolicy;
+use super::problem::{IncrementalPotential, Problem, StepContext, StepKind};
+use super::stats::{NewtonInfo, Timings};
+use crate::elastic::{ElasticBody, Linearization};
+use crate::linear::cg::{self, CgError, CgParams};
+use crate::linear::{LinearSolver, SolverReport, make_solver};
+use crate::math::{Mat3, Vec3};
+
+/// Newton's method with its preallocated workspace (one per simulation).
+pub struct Newton {
+    pub(super) potential: IncrementalPotential,
+    solver: Box<dyn LinearSolver>,
+    pub(super) rhs: Vec<Vec3>,
+    pub(super) dx: Vec<Vec3>,
+    pub(super) x_start: Vec<Vec3>,
+    pub(super) partials: Vec<f64>,
+    timings: Timings,
+    policy: TangentPolicy,
+    /// Whether a failed ‖rhs‖ line search may fall back on the potential (see
+    /// [`Newton::set_last_resort`]).
+    pub(super) last_resort: bool,
+}
+
+/// Merit and residual of one evaluated iterate.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Evaluation {
+    /// Elastic energy, J.
+    pub energy: f64,
+    /// The incremental potential Φ, J.
+    pub potential: f64,
+    /// ‖rhs‖ over the free DOFs, N.
+    pub residual: f64,
+}
+
+impl Newton {
+    /// Workspace for `body`.
+    pub fn new(body: &ElasticBody, params: &SolverParams) -> Self {
+        let n = body.vertex_count();
+        Newton {
+            potential: IncrementalPotential::new(body, params),
+            solver: make_solver(&params.linear(), n),
+            rhs: vec![Vec3::zeros(); n],
+            dx: vec![Vec3::zeros(); n],
+            x_start: vec![Vec3::zeros(); n],
+            partials: vec![0.0; n.div_ceil(CHUNK).max(1)],
+            timings: Timings::default(),
+            policy: TangentPolicy::new(params.definiteness),
+            last_resort: true,
+        }
+    }
+
+    /// The incremental potential's terms (add contact or friction terms to `extra`).
+    pub fn potential_mut(&mut self) -> &mut IncrementalPotential {
+        &mut self.potential
+    }
+
+    /// The incremental potential's terms.
+    pub fn potential(&self) -> &IncrementalPotential {
+        &self.potential
+    }
+
+    /// The linearization at the last evaluated iterate (for diagnostics).
+    pub fn linearization(&self) -> &Linearization {
+        self.potential.elasticity.linearization()
+    }
+
+    /// Bytes one CG iteration's operator and preconditioner move (a traffic model for roofline
+    /// figures; see each [`LinearSolver`]). On the assembled paths known after the first solve.
+    pub fn bytes_per_cg_iteration(&self, body: &ElasticBody) -> f64 {
+        self.solver
+            .bytes_per_iteration(body.matrix_free_bytes_per_product())
+    }
+
+    /// What the linear solver did so far.
+    pub fn solver_report(&self) -> SolverReport {
+        self.solver.report()
+    }
+
+    /// The sparse Cholesky's costs and counts, when it is the preconditioner.
+    #[cfg(feature = "direct")]
+    pub fn cholesky_info(&self) -> Option<&crate::linear::direct::CholeskyInfo> {
+        self.solver.cholesky_info()
+    }
+
+    /// The elastic forces f_el at the last evaluated iterate (the step's result after
+    /// [`Newton::solve`]), N.
+    pub fn elastic_forces(&self) -> &[Vec3] {
+        self.potential.elasticity.forces()
+    }
+
+    /// K·v at the last evaluated iterate of a dynamic step with γ > 0 (the damping force is
+    /// −γ·K·v); stale otherwise.
+    pub fn stiffness_velocity(&self) -> &[Vec3] {
+        self.potential.elasticity.stiffness_velocity()
+    }
+
+    /// The right-hand side at the last evaluated iterate, zero on constrained components: what
+    /// is left of the step's equation, N.
+    pub fn residual(&self) -> &[Vec3] {
+        &self.rhs
+    }
+
+    /// Whether the coming solves are a last attempt (no retry with smaller steps follows; the
+    /// default). Only then may a first line search on ‖rhs‖ (γ > 0) that finds nothing accept a
+    /// step on which the incremental potential without the damping term falls by Armijo's rule.
+    pub fn set_last_resort(&mut self, last: bool) {
+        self.last_resort = last;
+    }
+
+    /// Solve one step. On entry `x` holds the initial guess with its constrained components at
+    /// their prescribed values; on exit `x` (and `v`, for dynamic steps) hold the result.
+    pub fn solve(&mut self, ctx: &StepContext<'_>, x: &mut [Vec3], v: &mut [Vec3]) -> NewtonInfo {
+        let params = ctx.params;
+        let mut info = NewtonInfo {
+            // One allocation per step, none per iteration.
+            history: Vec::with_capacity(params.newton_max_iterations + 1),
+            ..Default::default()
+        };
+        self.timings = Timings::default();
+        let floor = absolute_floor(ctx.body);
+        let mut eval = self.evaluate(ctx, x, v);
+        let first = eval.residual;
+        let mut eta = FORCING_MAX;
+        info.clamped_tets = self.linearization().clamped_tets();
+        loop {
+            info.history.push(eval.residual);
+            info.residual = eval.residual;
+            info.elastic_energy = eval.energy;
+            info.relative_residual = if first > floor {
+                eval.residual / first
+            } else {
+                0.0
+            };
+            if !eval.residual.is_finite() {
+                info.failure = Some("the residual became non-finite".into());
+                break;
+            }
+            if eval.residual <= floor || eval.residual <= params.newton_tolerance * first {
+                info.converged = true;
+                break;
+            }
+            if info.iterations == params.newton_max_iterations {
+                info.failure = Some(format!(
+                    "Newton reached its cap of {} iterations at relative residual {:.2e} (tolerance {:.0e})",
+                    params.newton_max_iterations, info.relative_residual, params.newton_tolerance
+                ));
+                break;
+            }
+            info.iterations += 1;
+            let (cg_before, cuts_before) = (info.cg_iterations, info.line_search_cuts);
+            eta = forcing_term(params, &info.history, eta, first, floor);
+            let cg_params = CgParams {
+                tolerance: eta,
+                max_iterations: params.cg.max_iterations,
+            };
+            let mut exact = self.policy.wants_exact(&info.history, self.linearization());
+            self.potential.use_exact(exact);
+            let breakdowns = info.cg_breakdowns;
+            self.solve_linear(ctx, &cg_params, &mut info);
+            if exact && (info.cg_breakdowns > breakdowns || !self.is_descent(ctx)) {
+                log::debug!(
+                    "Newton {}: exact tangent gave no descent; projected",
+                    info.iterations
+                );
+                info.cg_breakdowns = breakdowns;
+                info.projected_fallbacks += 1;
+                exact = false;
+                self.potential.use_exact(false);
+                self.solve_linear(ctx, &cg_params, &mut info);
+            }
+            let mut searched = self.line_search(ctx, x, v, eval, &mut info);
+            if searched.is_none() && exact {
+                // The line search re-evaluated x: its linearization is projected again.
+                log::debug!(
+                    "Newton {}: line search failed on the exact tangent; projected",
+                    info.iterations
+                );
+                info.projected_fallbacks += 1;
+                self.solve_linear(ctx, &cg_params, &mut info);
+                searched = self.line_search(ctx, x, v, eval, &mut info);
+            }
+            match searched {
+                Some(next) => {
+                    log::debug!(
+                        "Newton {}: residual {:.3e} → {:.3e}, {} CG, {} line-search cuts",
+                        info.iterations,
+                        eval.residual,
+                        next.residual,
+                        info.cg_iterations - cg_before,
+                        info.line_search_cuts - cuts_before
+                    );
+                    eval = next
+                }
+                None => {
+                    info.failure = Some(
+                        "the line search found no step that reduces the merit (the Newton direction is not a descent direction)".into(),
+                    );
+                    break;
+                }
+            }
+            info.clamped_tets = info.clamped_tets.max(self.linearization().clamped_tets());
+        }
+        info.timings = self.timings;
+        info
+    }
+
+    /// dx = A⁻¹·rhs by the linear solver (A from the current linearizations).
+    fn solve_linear(&mut self, ctx: &StepContext<'_>, cg_params: &CgParams, info: &mut NewtonInfo) {
+        let started = Instant::now();
+        let mut problem = Problem::new(&mut self.potential, ctx);
+        self.solver.prepare(&mut problem, ctx.free);
+        self.dx.iter_mut().for_each(|d| *d = Vec3::zeros());
+        let cg_started = Instant::now();
+        self.timings.preconditioner += cg_started.duration_since(started).as_secs_f64();
+        let result = self
+            .solver
+            .solve(&mut problem, &self.rhs, &mut self.dx, ctx.free, cg_params);
+        self.timings.cg += cg_started.elapsed().as_secs_f64();
+        match result {
+            Ok(cg_info) => {
+                info.cg_iterations += cg_info.iterations;
+                info.cg_capped += (!cg_info.converged) as usize;
+            }
+            Err(CgError::NotPositiveDefinite { info: cg_info, .. })
+            | Err(CgError::NonFinite { info: cg_info, .. }) => {
+                info.cg_iterations += cg_info.iterations;
+                info.cg_breakdowns += 1;
+                log::debug!("CG broke down after {} iterations", cg_info.iterations);
+                // The iterate so far minimises the quadratic model over the Krylov space built
+                // before the breakdown; with none, fall back to the preconditioned residual.
+                let useless = self.dx.iter().all(|d| *d == Vec3::zeros())
+                    || self.dx.iter().any(|d| !d.iter().all(|c| c.is_finite()));
+                if useless {
+                    self.solver.precondition(&self.rhs, &mut self.dx);
+                    cg::project(&mut self.dx, ctx.free);
+                }
+            }
+        }
+    }
+
+    /// Whether dx points downhill: for the incremental potential (γ = 0 or quasistatic) its
+    /// slope ∇Φ·dx = −rhs·dx must be negative. With γ > 0 there is no potential and the line
+    /// search on ‖rhs‖ is the judge.
+    fn is_descent(&mut self, ctx: &StepContext<'_>) -> bool {
+        !ctx.has_potential() || cg::dot(&self.rhs, &self.dx, &mut self.partials) > 0.0
+    }
+
+    /// Evaluate every term at x (linearizing), fill `self.rhs` (masked) and `v` (dynamic), and
+    /// return the merits.
+    pub(super) fn evaluate(
+        &mut self,
+        ctx: &StepContext<'_>,
+        x: &[Vec3],
+        v: &mut [Vec3],
+    ) -> Evaluation {
+        let started = Instant::now();
+        if let StepKind::Dynamic { xn, h, .. } = ctx.kind {
+            v.par_iter_mut()
+                .zip(x.par_iter().zip(xn.par_iter()))
+                .with_min_len(CHUNK)
+                .for_each(|(v, (x, xn))| *v = (x - xn) / h);
+        }
+        let potential = self
+            .potential
+            .evaluate(ctx, x, v, &mut self.rhs, &mut self.partials);
+        let residual = cg::dot(&self.rhs, &self.rhs, &mut self.partials).sqrt();
+        self.timings.evaluate += started.elapsed().as_secs_f64();
+        Evaluation {
+            energy: self.potential.elasticity.energy(),
+            potential,
+            residual,
+        }
+    }
+}
+
+/// CG tolerance η for the next Newton iterate (inexact Newton; Eisenstat & Walker 1996,
+/// choice 2 with γ = 0.9, α = 2): η = 0.9·(‖rₖ‖/‖rₖ₋₁‖)², kept from falling faster than
+/// 0.9·η_prev² once that exceeds 0.1, capped at [`FORCING_MAX`]; never tighter than half of
+/// what would reach the Newton target in this step (no oversolving at the end), nor than
+/// `cg.tolerance`. With `inexact_newton` off, η = `cg.tolerance`.
+fn forcing_term(
+    params: &SolverParams,
+    history: &[f64],
+    previous: f64,
+    first: f64,
+    floor: f64,
+) -> f64 {
+    if !params.inexact_newton {
+        return params.cg.tolerance;
+    }
+    let r = *history.last().unwrap_or(&first);
+    let mut eta = match history {
+        [.., before, last] => {
+            let ratio = last / before.max(f64::MIN_POSITIVE);
+            let eta = 0.9 * ratio * ratio;
+            let safeguard = 0.9 * previous * previous;
+            if safeguard > 0.1 {
+                eta.max(safeguard)
+            } else {
+                eta
+            }
+        }
+        _ => FORCING_MAX,
+    };
+    eta = eta.min(FORCING_MAX);
+    let target = (params.newton_tolerance * first).max(floor);
+    eta = eta.max(0.5 * target / r.max(f64::MIN_POSITIVE));
+    eta.clamp(params.cg.tolerance, FORCING_MAX.max(params.cg.tolerance))
+}
+
+/// The loosest CG tolerance inexact Newton uses.
+const FORCING_MAX: f64 = 0.1;
+
+/// Absolute residual floor: 1e-12 of the characteristic force E·ℓ²·√n (E from the material at
+/// rest), so that a body at rest is converged before any iteration.
+fn absolute_floor(body: &ElasticBody) -> f64 {
+    use crate::material::Material;
+    // The rest tangent's ∂P₁₁/∂F₁₁ = λ + 2μ stands in for E: a scale, not a measurement.
+    let mut df = Mat3::zeros();
+    df[(0, 0)] = 1.0;
+    let stiffness = body.model.stress_differential(&Mat3::identity(), &df)[(0, 0)].abs();
+    let edge = body.mesh.mean_edge_length();
+    1e-12 * stiffness * edge * edge * (body.vertex_count() as f64).sqrt()
+}

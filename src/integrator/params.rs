@@ -1,0 +1,123 @@
+//! Every setting of a step's solve: what is integrated, Newton's and CG's tolerances, the
+//! definiteness strategy, the linear-solver strategy, and the failure policy.
+
+use crate::linear::LinearSolverParams;
+use crate::linear::PreconditionerKind;
+use crate::linear::amg::AmgParams;
+use crate::linear::cg::CgParams;
+use crate::material::Definiteness;
+
+/// What is integrated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// Backward (implicit) Euler in time, SPEC §4.
+    #[default]
+    BackwardEuler,
+    /// Static equilibrium under loads ramped over load steps.
+    Quasistatic,
+}
+
+/// What to do when a step does not converge (SPEC §9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OnFailure {
+    /// Keep the unconverged (but finite) result, flag it in steps.csv and go on.
+    Continue,
+    /// Redo the frame with twice the substeps (load increments), up to `max_step_cuts` times;
+    /// if it still fails, continue as above with the best finite result.
+    #[default]
+    Retry,
+    /// Stop the run with an error (non-zero exit); frames written so far stay valid.
+    Stop,
+}
+
+/// Every solver setting, with its unit and default (built by the scene from `[solver]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolverParams {
+    /// Backward Euler (default) or quasistatic.
+    pub integrator: Integrator,
+    /// Seconds per frame (backward Euler). Default 1/30 s.
+    pub dt: f64,
+    /// Frames (backward Euler) or load steps (quasistatic). Default 60.
+    pub frames: usize,
+    /// Time steps (load increments) per frame. Default 1.
+    pub substeps: usize,
+    /// Rayleigh stiffness damping γ, seconds: f_d = −γK(x)v. Default 0.
+    pub rayleigh_stiffness: f64,
+    /// Rayleigh mass damping α, 1/s: f_d = −αMv. Default 0.
+    pub rayleigh_mass: f64,
+    /// Newton stops at ‖rhs‖ ≤ this × the step's first ‖rhs‖. Default 1e-6.
+    pub newton_tolerance: f64,
+    /// Newton iteration cap per step. Default 20.
+    pub newton_max_iterations: usize,
+    /// CG tolerance (relative to ‖rhs‖) and cap. Defaults 1e-6 and 2000.
+    pub cg: CgParams,
+    /// Definiteness treatment of K. Default Adaptive: Teran's projection, with the exact tangent
+    /// once projected Newton stalls (see [`Definiteness::Adaptive`]).
+    pub definiteness: Definiteness,
+    /// Preconditioner. Default AMG on the assembled system: on the default cantilever (3,000
+    /// tets, 60 frames) 1,055 CG iterations in all against Jacobi's 8,725 and 1.4 s against 2.7 s
+    /// of CPU; 7–10× faster per frame than Jacobi at 41,472 and 192,000 tets (see the README).
+    /// Among the matrix-free ones Jacobi beats block Jacobi (122 against 129 CG iterations per
+    /// Newton iteration on the default beam, 272 against 303 at 41,472 tets). The sparse Cholesky
+    /// (feature `direct`, factor kept) ran the bench beam in 0.054 s/frame against AMG's 0.085
+    /// at 5,184 tets but 1.71 against 0.82 at 41,472 tets: AMG stays the default.
+    pub preconditioner: PreconditionerKind,
+    /// Settings of the AMG preconditioner (used when `preconditioner` is `Amg`).
+    pub amg: AmgParams,
+    /// Backtracking line search on (default) or off.
+    pub line_search: bool,
+    /// Inexact Newton: each CG solve only as tight as Newton's progress warrants (Eisenstat-
+    /// Walker forcing terms between 0.1 and `cg.tolerance`). Default on.
+    pub inexact_newton: bool,
+    /// With the AMG preconditioner, CG multiplies with the upper triangle of A stored in f32
+    /// (f64 vectors and sums) instead of the full f64 matrix: a third of the bytes per product.
+    /// Newton and CG iteration counts are unchanged on the issue-8 beams. Default false (see
+    /// the README's speed section for the measurement).
+    pub f32_matrix: bool,
+    /// With the Cholesky preconditioner: keep the factor across Newton iterations and frames and
+    /// refactor when CG needs more than `CHOLESKY_REFACTOR_RATE` (see `linear::cholesky`) iterations per decade (or the
+    /// factorization failed, or the constrained DOFs changed); false factors at every Newton
+    /// iterate. Default true.
+    pub cholesky_reuse: bool,
+    /// Failure policy. Default Retry.
+    pub on_failure: OnFailure,
+    /// How many times Retry may halve the step. Default 4 (16× substeps).
+    pub max_step_cuts: usize,
+}
+
+impl Default for SolverParams {
+    fn default() -> Self {
+        SolverParams {
+            integrator: Integrator::BackwardEuler,
+            dt: 1.0 / 30.0,
+            frames: 60,
+            substeps: 1,
+            rayleigh_stiffness: 0.0,
+            rayleigh_mass: 0.0,
+            newton_tolerance: 1e-6,
+            newton_max_iterations: 20,
+            cg: CgParams::default(),
+            definiteness: Definiteness::Adaptive,
+            preconditioner: PreconditionerKind::Amg,
+            amg: AmgParams::default(),
+            line_search: true,
+            inexact_newton: true,
+            f32_matrix: false,
+            cholesky_reuse: true,
+            on_failure: OnFailure::Retry,
+            max_step_cuts: 4,
+        }
+    }
+}
+
+impl SolverParams {
+    /// The linear-solver strategy's settings.
+    pub fn linear(&self) -> LinearSolverParams {
+        LinearSolverParams {
+            kind: self.preconditioner,
+            amg: self.amg.clone(),
+            f32_matrix: self.f32_matrix,
+            cholesky_reuse: self.cholesky_reuse,
+        }
+    }
+}

@@ -1,0 +1,291 @@
+//! The problem one Newton solve works on: the step's data ([`StepContext`]) and the incremental
+//! potential as a list of terms ([`IncrementalPotential`]), which is also the linear solvers'
+//! [`System`].
+
+use rayon::prelude::*;
+
+use super::CHUNK;
+use super::params::SolverParams;
+use super::terms::{Elasticity, ExternalForces, HessianShape, Inertia, Term};
+use crate::elastic::ElasticBody;
+use crate::linear::sparse::{BlockCsr, BlockPattern};
+use crate::linear::{System, SystemPattern};
+use crate::math::{Mat3, Vec3};
+
+/// What kind of step.
+#[derive(Clone, Copy, Debug)]
+pub enum StepKind<'a> {
+    /// Backward Euler from (xⁿ, vⁿ) over h seconds.
+    Dynamic {
+        /// Positions at the start of the step.
+        xn: &'a [Vec3],
+        /// Velocities at the start of the step.
+        vn: &'a [Vec3],
+        /// Step length, s.
+        h: f64,
+    },
+    /// Static equilibrium.
+    Static,
+}
+
+/// Everything one step's solve reads and does not change.
+#[derive(Clone, Copy)]
+pub struct StepContext<'a> {
+    /// The elastic body.
+    pub body: &'a ElasticBody,
+    /// Dynamic or static.
+    pub kind: StepKind<'a>,
+    /// External forces (gravity, loads) at the end of the step, N.
+    pub f_ext: &'a [Vec3],
+    /// 0/1 mask of the free DOFs.
+    pub free: &'a [Vec3],
+    /// Solver settings.
+    pub params: &'a SolverParams,
+}
+
+impl StepContext<'_> {
+    /// Whether Newton minimises a potential (γ = 0 or quasistatic); with γ > 0 the damping
+    /// force has none and the merit is ‖rhs‖.
+    pub fn has_potential(&self) -> bool {
+        self.params.rayleigh_stiffness == 0.0 || matches!(self.kind, StepKind::Static)
+    }
+}
+
+/// The incremental potential: inertia, elasticity (with damping) and loads, then any further
+/// terms (contact, friction), in that order (see [`super::terms`] for why order matters).
+pub struct IncrementalPotential {
+    /// Inertia and mass damping.
+    pub inertia: Inertia,
+    /// Elasticity and stiffness damping.
+    pub elasticity: Elasticity,
+    /// Gravity and dead loads.
+    pub external: ExternalForces,
+    /// Further terms, evaluated after the three above.
+    pub extra: Vec<Box<dyn Term>>,
+    /// The energy of every term at the last evaluation, in term order.
+    energies: Vec<f64>,
+    /// Lumped diagonal of the Hessian (sum of the diagonal terms), per vertex.
+    diagonal: Vec<f64>,
+    /// The pattern of the whole Hessian: the mesh's adjacency plus the extra terms' blocks.
+    pattern: Option<(BlockPattern, u64)>,
+    pattern_generations: Vec<u64>,
+    pattern_generation: u64,
+    scratch_pairs: Vec<(u32, u32)>,
+}
+
+/// The potential with the step context of the current solve: the linear solvers' [`System`].
+pub struct Problem<'p, 'c> {
+    /// The terms.
+    pub potential: &'p mut IncrementalPotential,
+    /// The step.
+    pub ctx: &'p StepContext<'c>,
+}
+
+impl IncrementalPotential {
+    /// The built-in terms for `body`.
+    pub fn new(body: &ElasticBody, params: &SolverParams) -> Self {
+        IncrementalPotential {
+            inertia: Inertia,
+            elasticity: Elasticity::new(body, params.definiteness),
+            external: ExternalForces,
+            extra: Vec::new(),
+            energies: Vec::new(),
+            diagonal: vec![0.0; body.vertex_count()],
+            pattern: None,
+            pattern_generations: Vec::new(),
+            pattern_generation: 0,
+            scratch_pairs: Vec::new(),
+        }
+    }
+
+    /// Every term, in order.
+    pub fn terms_mut(&mut self) -> impl Iterator<Item = &mut dyn Term> {
+        [
+            &mut self.inertia as &mut dyn Term,
+            &mut self.elasticity,
+            &mut self.external,
+        ]
+        .into_iter()
+        .chain(self.extra.iter_mut().map(|t| &mut **t as &mut dyn Term))
+    }
+
+    /// Every term's name, in order.
+    pub fn term_names(&self) -> Vec<&'static str> {
+        let mut names = vec![
+            self.inertia.name(),
+            self.elasticity.name(),
+            self.external.name(),
+        ];
+        names.extend(self.extra.iter().map(|t| t.name()));
+        names
+    }
+
+    /// The energy of each term at the last evaluation, in term order, J.
+    pub fn energies(&self) -> &[f64] {
+        &self.energies
+    }
+
+    /// Evaluate every term at x: `force` = the total force (masked by the free DOFs), returns the
+    /// potential Φ (the sum of the terms' energies, in order).
+    pub fn evaluate(
+        &mut self,
+        ctx: &StepContext<'_>,
+        x: &[Vec3],
+        v: &[Vec3],
+        force: &mut [Vec3],
+        partials: &mut [f64],
+    ) -> f64 {
+        force
+            .par_iter_mut()
+            .with_min_len(CHUNK)
+            .for_each(|f| *f = Vec3::zeros());
+        let mut energies = std::mem::take(&mut self.energies);
+        energies.clear();
+        for term in self.terms_mut() {
+            energies.push(term.evaluate(ctx, x, v, force, partials));
+        }
+        self.energies = energies;
+        let free = ctx.free;
+        force
+            .par_iter_mut()
+            .zip(free.par_iter())
+            .with_min_len(CHUNK)
+            .for_each(|(f, m)| *f = f.component_mul(m));
+        self.energies.iter().sum()
+    }
+
+    /// Use the exact Hessians (or the projected ones again) in every term.
+    pub fn use_exact(&mut self, exact: bool) {
+        self.terms_mut().for_each(|t| t.use_exact(exact));
+    }
+
+    /// Refill the lumped diagonal from the diagonal terms.
+    fn fill_diagonal(&mut self, ctx: &StepContext<'_>) {
+        let mut diagonal = std::mem::take(&mut self.diagonal);
+        diagonal.iter_mut().for_each(|d| *d = 0.0);
+        for term in self.terms_mut() {
+            if term.hessian_shape(ctx) == HessianShape::LumpedDiagonal {
+                term.add_lumped_diagonal(ctx, &mut diagonal);
+            }
+        }
+        self.diagonal = diagonal;
+    }
+
+    /// Rebuild the Hessian's pattern when an extra term's blocks changed.
+    fn refresh_pattern(&mut self) {
+        let generations: Vec<u64> = self.extra.iter().map(|t| t.pattern_generation()).collect();
+        if self.pattern.is_some() && generations == self.pattern_generations {
+            return;
+        }
+        let base = self.elasticity.pattern();
+        self.scratch_pairs.clear();
+        for term in &self.extra {
+            term.extra_blocks(&mut self.scratch_pairs);
+        }
+        let pattern = if self.scratch_pairs.is_empty() {
+            base.clone()
+        } else {
+            let mut rows: Vec<Vec<u32>> = (0..base.rows())
+                .map(|i| base.cols[base.row(i)].to_vec())
+                .collect();
+            for &(i, j) in &self.scratch_pairs {
+                rows[i as usize].push(j);
+                rows[j as usize].push(i);
+            }
+            for row in &mut rows {
+                row.sort_unstable();
+                row.dedup();
+            }
+            BlockPattern::from_rows(&rows)
+        };
+        let unchanged = self.pattern.as_ref().is_some_and(|(p, _)| *p == pattern);
+        if !unchanged {
+            self.pattern_generation += 1;
+            self.pattern = Some((pattern, self.pattern_generation));
+        }
+        self.pattern_generations = generations;
+    }
+}
+
+impl<'p, 'c> Problem<'p, 'c> {
+    /// The system at the potential's last evaluation.
+    pub fn new(potential: &'p mut IncrementalPotential, ctx: &'p StepContext<'c>) -> Self {
+        potential.fill_diagonal(ctx);
+        potential.refresh_pattern();
+        Problem { potential, ctx }
+    }
+}
+
+impl System for Problem<'_, '_> {
+    fn len(&self) -> usize {
+        self.potential.diagonal.len()
+    }
+
+    fn apply(&mut self, p: &[Vec3], out: &mut [Vec3]) {
+        let ctx = self.ctx;
+        out.par_iter_mut()
+            .with_min_len(CHUNK)
+            .for_each(|o| *o = Vec3::zeros());
+        for term in self.potential.terms_mut() {
+            if term.hessian_shape(ctx) == HessianShape::Blocks {
+                term.add_hessian_product(ctx, p, out);
+            }
+        }
+        let d = &self.potential.diagonal;
+        out.par_iter_mut()
+            .zip(p.par_iter().zip(d.par_iter()))
+            .with_min_len(CHUNK)
+            .for_each(|(o, (p, &d))| *o += d * p);
+    }
+
+    fn diagonal_blocks(&mut self, out: &mut [Mat3]) {
+        let ctx = self.ctx;
+        out.par_iter_mut()
+            .with_min_len(CHUNK)
+            .for_each(|o| *o = Mat3::zeros());
+        for term in self.potential.terms_mut() {
+            if term.hessian_shape(ctx) == HessianShape::Blocks {
+                term.add_diagonal_blocks(ctx, out);
+            }
+        }
+        let d = &self.potential.diagonal;
+        out.par_iter_mut()
+            .zip(d.par_iter())
+            .with_min_len(CHUNK)
+            .for_each(|(o, &d)| *o += Mat3::from_diagonal_element(d));
+    }
+
+    fn pattern(&self) -> SystemPattern<'_> {
+        let (pattern, generation) = self
+            .potential
+            .pattern
+            .as_ref()
+            .expect("refreshed when the problem was made");
+        SystemPattern {
+            pattern,
+            generation: *generation,
+        }
+    }
+
+    fn assemble(&mut self, a: &mut BlockCsr) {
+        let ctx = self.ctx;
+        a.values
+            .par_iter_mut()
+            .with_min_len(CHUNK)
+            .for_each(|b| *b = Mat3::zeros());
+        for term in self.potential.terms_mut() {
+            if term.hessian_shape(ctx) == HessianShape::Blocks {
+                term.add_to_matrix(ctx, a);
+            }
+        }
+        a.add_diagonal(&self.potential.diagonal);
+    }
+
+    fn rest_positions(&self) -> &[Vec3] {
+        &self.ctx.body.mesh.positions
+    }
+
+    fn is_projected(&self) -> bool {
+        !self.potential.elasticity.linearization().exact_in_use()
+    }
+}

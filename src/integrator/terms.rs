@@ -1,0 +1,310 @@
+//! The terms of the incremental potential Newton minimises, behind one [`Term`] trait.
+//!
+//! A backward-Euler step from (xⁿ, vⁿ) over h finds a stationary point of
+//!
+//! ```text
+//! Φ(x) = ½‖x − xⁿ − h·vⁿ‖²_M / h² + α‖x − xⁿ‖²_M / (2h)     inertia and mass damping
+//!      + E(x)                                               elasticity (stiffness damping: force only)
+//!      − f_ext·x                                            gravity and dead loads
+//!      + …                                                  contact, friction (as they come)
+//! ```
+//!
+//! (a quasistatic step drops the first line). Each term gives its energy, adds its force
+//! `−∇Φ_term` (plus non-conservative parts, like the damping force `−γ·K·v`), and describes its
+//! Hessian: none (linear terms), a lumped diagonal (inertia), or blocks (elasticity, contact)
+//! with a product, diagonal blocks, a block pattern and an assembly. Hessians are the
+//! definiteness-projected ones unless [`Term::use_exact`] says otherwise.
+//!
+//! **Order.** Forces are added in list order (inertia, elasticity, loads, then the rest), from
+//! zero; Hessians are added block terms first, then the lumped diagonals (they are folded into
+//! the last pass). Both orders are fixed, so sums are the same bits for any thread count.
+
+use rayon::prelude::*;
+
+use super::problem::{StepContext, StepKind};
+use super::{CHUNK, ordered_sum};
+use crate::elastic::{AssemblyWork, ElasticBody, Linearization};
+use crate::linear::sparse::{BlockCsr, BlockPattern};
+use crate::material::Definiteness;
+use crate::math::{Mat3, Vec3};
+
+/// How a term's Hessian looks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HessianShape {
+    /// Zero: the term is linear in x (dead loads).
+    Zero,
+    /// A diagonal with the same weight on a vertex's three DOFs (lumped masses): see
+    /// [`Term::add_lumped_diagonal`].
+    LumpedDiagonal,
+    /// 3×3 blocks between vertices: see [`Term::add_hessian_product`] and the others.
+    Blocks,
+}
+
+/// One term of the incremental potential. See the module docs for the sign and order rules.
+pub trait Term: Send {
+    /// A short name for reports and `tetsim check` ("inertia", "elasticity", ...).
+    fn name(&self) -> &'static str;
+
+    /// Evaluate at positions x (v: the velocities x implies in a dynamic step; zero when
+    /// static): return the term's energy (J; 0 for terms without one) and add its force into
+    /// `force`. Terms with blocks linearize here, once per iterate (prepare once, apply many).
+    fn evaluate(
+        &mut self,
+        ctx: &StepContext<'_>,
+        x: &[Vec3],
+        v: &[Vec3],
+        force: &mut [Vec3],
+        partials: &mut [f64],
+    ) -> f64;
+
+    /// The shape of the Hessian at the last evaluation.
+    fn hessian_shape(&self, ctx: &StepContext<'_>) -> HessianShape;
+
+    /// `d[i] += w_i` for a [`HessianShape::LumpedDiagonal`] term (the Hessian is diag(w)⊗I₃).
+    fn add_lumped_diagonal(&self, _ctx: &StepContext<'_>, _d: &mut [f64]) {}
+
+    /// `out += H·p` for a [`HessianShape::Blocks`] term.
+    fn add_hessian_product(&mut self, _ctx: &StepContext<'_>, _p: &[Vec3], _out: &mut [Vec3]) {}
+
+    /// `out[i] += H_ii` (3×3 diagonal blocks) for a [`HessianShape::Blocks`] term.
+    fn add_diagonal_blocks(&mut self, _ctx: &StepContext<'_>, _out: &mut [Mat3]) {}
+
+    /// The blocks (i, j) this term's Hessian may fill beyond the mesh's vertex adjacency, in any
+    /// order (contact pairs); changes between iterates are noticed through
+    /// [`Term::pattern_generation`].
+    fn extra_blocks(&self, _out: &mut Vec<(u32, u32)>) {}
+
+    /// A number that changes whenever [`Term::extra_blocks`] does.
+    fn pattern_generation(&self) -> u64 {
+        0
+    }
+
+    /// `a += H` for a [`HessianShape::Blocks`] term (`a`'s pattern holds the term's blocks).
+    fn add_to_matrix(&mut self, _ctx: &StepContext<'_>, _a: &mut BlockCsr) {}
+
+    /// Use the exact (true) Hessian instead of the definiteness-projected one, or back.
+    fn use_exact(&mut self, _exact: bool) {}
+}
+
+/// Inertia and mass damping of a backward-Euler step:
+/// `½‖x − xⁿ − h·vⁿ‖²_M / h² + α‖x − xⁿ‖²_M / (2h)`, force `M·((vⁿ − v)/h − α·v)`, Hessian
+/// `(1/h² + α/h)·M`. Absent (zero) in a quasistatic step.
+#[derive(Debug, Default)]
+pub struct Inertia;
+
+impl Term for Inertia {
+    fn name(&self) -> &'static str {
+        "inertia"
+    }
+
+    fn evaluate(
+        &mut self,
+        ctx: &StepContext<'_>,
+        x: &[Vec3],
+        v: &[Vec3],
+        force: &mut [Vec3],
+        partials: &mut [f64],
+    ) -> f64 {
+        let StepKind::Dynamic { xn, vn, h } = ctx.kind else {
+            return 0.0;
+        };
+        let alpha = ctx.params.rayleigh_mass;
+        let masses = ctx.body.masses();
+        force
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(CHUNK)
+            .for_each(|(i, f)| *f += masses[i] * ((vn[i] - v[i]) / h - alpha * v[i]));
+        ordered_sum(partials, x.len(), |i| {
+            let xhat = xn[i] + h * vn[i];
+            let m = masses[i];
+            0.5 * m * (x[i] - xhat).norm_squared() / (h * h)
+                + 0.5 * alpha * m * (x[i] - xn[i]).norm_squared() / h
+        })
+    }
+
+    fn hessian_shape(&self, ctx: &StepContext<'_>) -> HessianShape {
+        match ctx.kind {
+            StepKind::Dynamic { .. } => HessianShape::LumpedDiagonal,
+            StepKind::Static => HessianShape::Zero,
+        }
+    }
+
+    fn add_lumped_diagonal(&self, ctx: &StepContext<'_>, d: &mut [f64]) {
+        if let StepKind::Dynamic { h, .. } = ctx.kind {
+            let scale = 1.0 / (h * h) + ctx.params.rayleigh_mass / h;
+            for (d, m) in d.iter_mut().zip(ctx.body.masses()) {
+                *d += scale * m;
+            }
+        }
+    }
+}
+
+/// Elasticity E(x) with Rayleigh stiffness damping: force `f_el(x) − γ·K(x)·v` (dynamic steps),
+/// Hessian `(1 + γ/h)·K(x)` (K(x) in the damping term frozen: a modified Newton method whose
+/// fixed point is the exact backward-Euler step).
+pub struct Elasticity {
+    lin: Linearization,
+    f_el: Vec<Vec3>,
+    kv: Vec<Vec3>,
+    scratch: Vec<Vec3>,
+    blocks: Vec<Mat3>,
+    pattern: BlockPattern,
+    work: AssemblyWork,
+    energy: f64,
+}
+
+impl Elasticity {
+    /// Buffers for `body` with tangents made by `definiteness` (`adaptive` keeps the exact
+    /// pieces beside the projected ones, see [`Term::use_exact`]).
+    pub fn new(body: &ElasticBody, definiteness: Definiteness) -> Self {
+        let n = body.vertex_count();
+        Elasticity {
+            lin: Linearization::new(body, definiteness),
+            f_el: vec![Vec3::zeros(); n],
+            kv: vec![Vec3::zeros(); n],
+            scratch: vec![Vec3::zeros(); n],
+            blocks: Vec::new(),
+            pattern: body.stiffness_pattern(),
+            work: AssemblyWork::default(),
+            energy: 0.0,
+        }
+    }
+
+    /// The linearization at the last evaluation.
+    pub fn linearization(&self) -> &Linearization {
+        &self.lin
+    }
+
+    /// The elastic forces f_el at the last evaluation, N.
+    pub fn forces(&self) -> &[Vec3] {
+        &self.f_el
+    }
+
+    /// K·v at the last evaluation of a dynamic step with γ > 0; stale otherwise.
+    pub fn stiffness_velocity(&self) -> &[Vec3] {
+        &self.kv
+    }
+
+    /// E at the last evaluation, J.
+    pub fn energy(&self) -> f64 {
+        self.energy
+    }
+
+    /// The mesh's vertex adjacency: the pattern of K.
+    pub fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+
+    /// The scale of K in the Newton matrix: 1 + γ/h (dynamic) or 1.
+    fn scale(ctx: &StepContext<'_>) -> f64 {
+        match ctx.kind {
+            StepKind::Dynamic { h, .. } => 1.0 + ctx.params.rayleigh_stiffness / h,
+            StepKind::Static => 1.0,
+        }
+    }
+}
+
+impl Term for Elasticity {
+    fn name(&self) -> &'static str {
+        "elasticity"
+    }
+
+    fn evaluate(
+        &mut self,
+        ctx: &StepContext<'_>,
+        x: &[Vec3],
+        v: &[Vec3],
+        force: &mut [Vec3],
+        _partials: &mut [f64],
+    ) -> f64 {
+        let body = ctx.body;
+        self.energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
+        let gamma = match ctx.kind {
+            StepKind::Dynamic { .. } => ctx.params.rayleigh_stiffness,
+            StepKind::Static => 0.0,
+        };
+        let f_el = &self.f_el;
+        if gamma != 0.0 {
+            body.apply_stiffness(&mut self.lin, v, &mut self.kv);
+            let kv = &self.kv;
+            force
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(CHUNK)
+                .for_each(|(i, f)| *f = *f + f_el[i] - gamma * kv[i]);
+        } else {
+            force
+                .par_iter_mut()
+                .zip(f_el.par_iter())
+                .with_min_len(CHUNK)
+                .for_each(|(f, fe)| *f += fe);
+        }
+        self.energy
+    }
+
+    fn hessian_shape(&self, _ctx: &StepContext<'_>) -> HessianShape {
+        HessianShape::Blocks
+    }
+
+    fn add_hessian_product(&mut self, ctx: &StepContext<'_>, p: &[Vec3], out: &mut [Vec3]) {
+        ctx.body
+            .apply_stiffness(&mut self.lin, p, &mut self.scratch);
+        let k = Self::scale(ctx);
+        out.par_iter_mut()
+            .zip(self.scratch.par_iter())
+            .with_min_len(CHUNK)
+            .for_each(|(o, s)| *o += k * s);
+    }
+
+    fn add_diagonal_blocks(&mut self, ctx: &StepContext<'_>, out: &mut [Mat3]) {
+        self.blocks.resize(out.len(), Mat3::zeros());
+        ctx.body
+            .stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
+        let k = Self::scale(ctx);
+        out.par_iter_mut()
+            .zip(self.blocks.par_iter())
+            .with_min_len(CHUNK)
+            .for_each(|(o, b)| *o += k * b);
+    }
+
+    fn add_to_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
+        ctx.body
+            .add_stiffness(&self.lin, Self::scale(ctx), a, &mut self.work);
+    }
+
+    fn use_exact(&mut self, exact: bool) {
+        self.lin.use_exact(exact);
+    }
+}
+
+/// Gravity and dead loads, ramped by the boundary's clock: energy `−f_ext·x`, force f_ext.
+#[derive(Debug, Default)]
+pub struct ExternalForces;
+
+impl Term for ExternalForces {
+    fn name(&self) -> &'static str {
+        "loads"
+    }
+
+    fn evaluate(
+        &mut self,
+        ctx: &StepContext<'_>,
+        x: &[Vec3],
+        _v: &[Vec3],
+        force: &mut [Vec3],
+        partials: &mut [f64],
+    ) -> f64 {
+        let f_ext = ctx.f_ext;
+        force
+            .par_iter_mut()
+            .zip(f_ext.par_iter())
+            .with_min_len(CHUNK)
+            .for_each(|(f, fe)| *f += fe);
+        -ordered_sum(partials, x.len(), |i| f_ext[i].dot(&x[i]))
+    }
+
+    fn hessian_shape(&self, _ctx: &StepContext<'_>) -> HessianShape {
+        HessianShape::Zero
+    }
+}

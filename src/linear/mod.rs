@@ -1,0 +1,499 @@
+//! Solving Newton's linear systems `A·dx = rhs`, knowing nothing of FEM.
+//!
+//! A is whatever a [`System`] says it is: its product with a vector, its 3×3 diagonal blocks and
+//! its assembly into a block-sparse matrix over a pattern that may change between calls (contact
+//! adds and removes blocks). A [`LinearSolver`] is one strategy for solving with it, prepared
+//! once per Newton iterate and then applied:
+//!
+//! | scene value | strategy | file |
+//! | --- | --- | --- |
+//! | `none`, `jacobi`, `block-jacobi` | matrix-free CG product, diagonal preconditioners | [`matrix_free`] |
+//! | `amg` (default) | assembled A, smoothed-aggregation multigrid V-cycle | [`multigrid`] |
+//! | `cholesky` (feature `direct`) | assembled A, sparse Cholesky kept across iterates | `cholesky` |
+//!
+//! A new preconditioner is one new file implementing [`LinearSolver`] plus one
+//! [`PreconditionerKind`] value (and its scene name). The building blocks live beside them:
+//! [`cg`] (preconditioned conjugate gradient on any [`cg::LinearOperator`]), [`sparse`] (block
+//! matrices and patterns), [`amg`] (the multigrid hierarchy) and `direct` (faer's Cholesky).
+//!
+//! **Changing patterns.** Every assembled strategy compares [`SystemPattern::generation`] with
+//! the one it prepared for: a new generation rebuilds the matrix storage and what depends on the
+//! pattern (AMG aggregates, Cholesky's symbolic analysis); the same generation reuses them.
+
+pub mod amg;
+pub mod cg;
+#[cfg(feature = "direct")]
+pub mod cholesky;
+#[cfg(feature = "direct")]
+pub mod direct;
+pub mod matrix_free;
+pub mod multigrid;
+pub mod sparse;
+
+use crate::math::{Mat3, Vec3};
+use cg::{CgError, CgInfo, CgParams};
+use sparse::{BlockCsr, BlockPattern};
+
+/// The pattern a [`System`] assembles into, and a number that changes whenever it does.
+#[derive(Clone, Copy, Debug)]
+pub struct SystemPattern<'a> {
+    /// The block pattern (symmetric, diagonal included).
+    pub pattern: &'a BlockPattern,
+    /// Equal generations mean equal patterns.
+    pub generation: u64,
+}
+
+/// A symmetric system matrix A on vertex vectors (3 DOFs per vertex), as Newton's terms make it.
+/// Constrained DOFs are the solver's business (the 0/1 `free` mask), not the system's.
+pub trait System {
+    /// Number of vertices.
+    fn len(&self) -> usize;
+    /// True when the system has no vertices.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// `out = A·p` (matrix-free).
+    fn apply(&mut self, p: &[Vec3], out: &mut [Vec3]);
+    /// The 3×3 diagonal blocks of A, one per vertex (overwritten).
+    fn diagonal_blocks(&mut self, out: &mut [Mat3]);
+    /// The pattern of A's blocks.
+    fn pattern(&self) -> SystemPattern<'_>;
+    /// Write A into `a`, whose pattern is [`System::pattern`]'s (overwritten).
+    fn assemble(&mut self, a: &mut BlockCsr);
+    /// Rest positions of the vertices (multigrid builds its rigid-body modes from them).
+    fn rest_positions(&self) -> &[Vec3];
+    /// False while A holds an exact, possibly indefinite tangent (`adaptive` trying it): a
+    /// preconditioner must not be built from such an A (see [`multigrid`]).
+    fn is_projected(&self) -> bool;
+}
+
+/// What a strategy has done so far, for `tetsim bench` and the run summary.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SolverReport {
+    /// The scene name of the strategy.
+    pub name: &'static str,
+    /// Preconditioner builds from scratch (hierarchies, symbolic analyses with a factor).
+    pub builds: usize,
+    /// Numeric refreshes on a kept structure (AMG refresh, Cholesky refactorization).
+    pub refreshes: usize,
+    /// Times the system's pattern changed and the structure was rebuilt for it.
+    pub pattern_changes: usize,
+}
+
+/// One way of solving `A·x = b`: prepared for the system at a Newton iterate, then asked to
+/// solve (possibly several times: `adaptive` may retry with another tangent).
+pub trait LinearSolver: Send {
+    /// Get ready for solves with the system as it is now (assemble it, build or refresh a
+    /// preconditioner by the strategy's own rules). `free` is the 0/1 DOF mask.
+    fn prepare(&mut self, system: &mut dyn System, free: &[Vec3]);
+    /// `x ≈ A⁻¹·b` on the free DOFs by preconditioned CG from `x` (the caller zeroes it).
+    fn solve(
+        &mut self,
+        system: &mut dyn System,
+        b: &[Vec3],
+        x: &mut [Vec3],
+        free: &[Vec3],
+        params: &CgParams,
+    ) -> Result<CgInfo, CgError>;
+    /// `z = M⁻¹·r` with the prepared preconditioner (a fallback direction when CG breaks down).
+    fn precondition(&mut self, r: &[Vec3], z: &mut [Vec3]);
+    /// Bytes one CG iteration moves (operator and preconditioner; a traffic model for roofline
+    /// figures), for a system of `vertices` vertices whose matrix-free product moves
+    /// `matrix_free_bytes`.
+    fn bytes_per_iteration(&self, matrix_free_bytes: f64) -> f64;
+    /// Counts so far.
+    fn report(&self) -> SolverReport;
+    /// The sparse Cholesky's costs, when this strategy uses it.
+    #[cfg(feature = "direct")]
+    fn cholesky_info(&self) -> Option<&direct::CholeskyInfo> {
+        None
+    }
+}
+
+/// The preconditioner (and with it the linear-solver strategy) of the Newton systems.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PreconditionerKind {
+    /// None (plain CG), for experiments.
+    Identity,
+    /// Diagonal of A.
+    Jacobi,
+    /// Inverse of each vertex's 3×3 diagonal block of A.
+    BlockJacobi,
+    /// Smoothed-aggregation algebraic multigrid ([`amg`]) on the assembled A, one V-cycle
+    /// per CG iteration; CG then multiplies with the assembled A too.
+    #[default]
+    Amg,
+    /// Sparse Cholesky of the assembled A (`direct`, feature `direct`), kept across
+    /// Newton iterations while CG converges fast (see `cholesky_reuse`).
+    #[cfg(feature = "direct")]
+    Cholesky,
+}
+
+/// Settings every strategy may read (each reads its own).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearSolverParams {
+    /// Which strategy.
+    pub kind: PreconditionerKind,
+    /// Multigrid settings.
+    pub amg: amg::AmgParams,
+    /// Assembled strategies: CG multiplies with an f32 upper triangle of A.
+    pub f32_matrix: bool,
+    /// Cholesky: keep the factor across iterates while CG converges fast.
+    pub cholesky_reuse: bool,
+}
+
+/// The strategy for `params`, for systems of `vertices` vertices.
+pub fn make_solver(params: &LinearSolverParams, vertices: usize) -> Box<dyn LinearSolver> {
+    match params.kind {
+        PreconditionerKind::Identity
+        | PreconditionerKind::Jacobi
+        | PreconditionerKind::BlockJacobi => {
+            Box::new(matrix_free::MatrixFree::new(params.kind, vertices))
+        }
+        PreconditionerKind::Amg => Box::new(multigrid::Multigrid::new(params, vertices)),
+        #[cfg(feature = "direct")]
+        PreconditionerKind::Cholesky => Box::new(cholesky::SparseCholesky::new(params, vertices)),
+    }
+}
+
+/// The assembled matrix of an assembled strategy, rebuilt when the system's pattern changes.
+#[derive(Debug, Default)]
+pub(crate) struct AssembledMatrix {
+    /// A, constrained.
+    pub a: Option<BlockCsr>,
+    /// The f32 upper triangle CG multiplies with, when asked for.
+    pub upper: Option<sparse::UpperF32>,
+    /// The pattern generation `a` was made for.
+    generation: Option<u64>,
+}
+
+impl AssembledMatrix {
+    pub fn new(f32_matrix: bool) -> Self {
+        AssembledMatrix {
+            a: None,
+            upper: f32_matrix.then(sparse::UpperF32::default),
+            generation: None,
+        }
+    }
+
+    /// Assemble and constrain A; true when the pattern changed since the last call (the first
+    /// call included).
+    pub fn assemble(&mut self, system: &mut dyn System, free: &[Vec3]) -> bool {
+        let pattern = system.pattern();
+        let changed = self.generation != Some(pattern.generation) || self.a.is_none();
+        if changed {
+            self.a = Some(BlockCsr::zeros(pattern.pattern.clone()));
+            self.generation = Some(pattern.generation);
+        }
+        let a = self.a.as_mut().expect("made above");
+        system.assemble(a);
+        a.constrain(free);
+        if let Some(upper) = &mut self.upper {
+            upper.fill_from(a);
+        }
+        changed
+    }
+
+    /// CG with the assembled A (f64 or its f32 upper triangle).
+    pub fn solve(
+        &mut self,
+        m: &mut dyn cg::Preconditioner,
+        b: &[Vec3],
+        x: &mut [Vec3],
+        free: &[Vec3],
+        params: &CgParams,
+        ws: &mut cg::CgWorkspace,
+    ) -> Result<CgInfo, CgError> {
+        match (&mut self.upper, &self.a) {
+            (Some(upper), _) => {
+                cg::conjugate_gradient(&mut UpperOperator(upper), m, b, x, free, params, ws)
+            }
+            (None, Some(a)) => {
+                cg::conjugate_gradient(&mut CsrOperator(a), m, b, x, free, params, ws)
+            }
+            (None, None) => panic!("solve before prepare"),
+        }
+    }
+
+    /// Bytes of the matrix one product reads (72-byte blocks plus a 4-byte column index, or the
+    /// f32 upper triangle).
+    pub fn bytes(&self) -> f64 {
+        match (&self.upper, &self.a) {
+            (Some(upper), _) => upper.matrix_bytes() as f64,
+            (None, Some(a)) => (a.pattern.blocks() * (72 + 4) + 4 * (a.rows() + 1)) as f64,
+            (None, None) => 0.0,
+        }
+    }
+}
+
+/// The assembled A as a CG operator.
+struct CsrOperator<'a>(&'a BlockCsr);
+
+impl cg::LinearOperator for CsrOperator<'_> {
+    fn len(&self) -> usize {
+        self.0.rows()
+    }
+
+    fn apply(&mut self, p: &[Vec3], out: &mut [Vec3]) {
+        self.0.multiply(p, out);
+    }
+}
+
+/// The f32 upper triangle of A as a CG operator.
+struct UpperOperator<'a>(&'a mut sparse::UpperF32);
+
+impl cg::LinearOperator for UpperOperator<'_> {
+    fn len(&self) -> usize {
+        self.0.rows()
+    }
+
+    fn apply(&mut self, p: &[Vec3], out: &mut [Vec3]) {
+        self.0.multiply(p, out);
+    }
+}
+
+/// CG iterations per decade of residual reduction of a solve: the measure the refresh rules use
+/// (inexact Newton asks for a loose 0.1 early in a step and a tight tolerance at its end, so raw
+/// counts say nothing about the preconditioner's quality).
+pub(crate) fn iterations_per_decade(info: &CgInfo) -> f64 {
+    let decades = (-info.relative_residual.max(1e-300).log10()).max(0.25);
+    info.iterations as f64 / decades
+}
+
+/// The [`CgInfo`] of a solve, finished or broken down.
+pub(crate) fn info_of(result: &Result<CgInfo, CgError>) -> &CgInfo {
+    match result {
+        Ok(i) => i,
+        Err(CgError::NotPositiveDefinite { info, .. } | CgError::NonFinite { info, .. }) => info,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! Every strategy on a system whose pattern grows and shrinks between solves, as contact
+    //! makes it: the answers stay right, and the assembled strategies rebuild exactly when the
+    //! pattern changed.
+
+    use super::*;
+
+    /// Vertices on a 3D lattice coupled to their lattice neighbours (springs along every axis),
+    /// a mass on the diagonal, and extra springs between far-apart pairs (the "contacts").
+    struct Springs {
+        positions: Vec<Vec3>,
+        edges: Vec<(usize, usize)>,
+        extra: Vec<(usize, usize)>,
+        pattern: BlockPattern,
+        generation: u64,
+    }
+
+    impl Springs {
+        fn new(side: usize) -> Self {
+            let index = |i: usize, j: usize, k: usize| (i * side + j) * side + k;
+            let mut positions = Vec::new();
+            let mut edges = Vec::new();
+            for i in 0..side {
+                for j in 0..side {
+                    for k in 0..side {
+                        positions.push(Vec3::new(i as f64, j as f64, k as f64));
+                        if i + 1 < side {
+                            edges.push((index(i, j, k), index(i + 1, j, k)));
+                        }
+                        if j + 1 < side {
+                            edges.push((index(i, j, k), index(i, j + 1, k)));
+                        }
+                        if k + 1 < side {
+                            edges.push((index(i, j, k), index(i, j, k + 1)));
+                        }
+                    }
+                }
+            }
+            let mut s = Springs {
+                positions,
+                edges,
+                extra: Vec::new(),
+                pattern: BlockPattern::default(),
+                generation: 0,
+            };
+            s.set_extra(Vec::new());
+            s
+        }
+
+        fn set_extra(&mut self, extra: Vec<(usize, usize)>) {
+            self.extra = extra;
+            let n = self.positions.len();
+            let mut rows: Vec<Vec<u32>> = (0..n).map(|i| vec![i as u32]).collect();
+            for &(i, j) in self.edges.iter().chain(&self.extra) {
+                rows[i].push(j as u32);
+                rows[j].push(i as u32);
+            }
+            rows.iter_mut().for_each(|r| {
+                r.sort_unstable();
+                r.dedup()
+            });
+            self.pattern = BlockPattern::from_rows(&rows);
+            self.generation += 1;
+        }
+
+        /// The block of spring (i, j): stiff along the spring, soft across it.
+        fn block(&self, i: usize, j: usize, stiffness: f64) -> Mat3 {
+            let d = (self.positions[j] - self.positions[i]).normalize();
+            stiffness * (d * d.transpose() + 0.1 * Mat3::identity())
+        }
+
+        fn springs(&self) -> impl Iterator<Item = (usize, usize, Mat3)> + '_ {
+            let edges = self
+                .edges
+                .iter()
+                .map(|&(i, j)| (i, j, self.block(i, j, 1.0)));
+            let extra = self
+                .extra
+                .iter()
+                .map(|&(i, j)| (i, j, self.block(i, j, 5.0)));
+            edges.chain(extra)
+        }
+    }
+
+    const MASS: f64 = 0.01;
+
+    impl System for Springs {
+        fn len(&self) -> usize {
+            self.positions.len()
+        }
+
+        fn apply(&mut self, p: &[Vec3], out: &mut [Vec3]) {
+            for (o, p) in out.iter_mut().zip(p) {
+                *o = MASS * p;
+            }
+            for (i, j, k) in self.springs() {
+                let f = k * (p[i] - p[j]);
+                out[i] += f;
+                out[j] -= f;
+            }
+        }
+
+        fn diagonal_blocks(&mut self, out: &mut [Mat3]) {
+            out.iter_mut()
+                .for_each(|b| *b = Mat3::from_diagonal_element(MASS));
+            for (i, j, k) in self.springs() {
+                out[i] += k;
+                out[j] += k;
+            }
+        }
+
+        fn pattern(&self) -> SystemPattern<'_> {
+            SystemPattern {
+                pattern: &self.pattern,
+                generation: self.generation,
+            }
+        }
+
+        fn assemble(&mut self, a: &mut BlockCsr) {
+            assert_eq!(a.pattern, self.pattern);
+            a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
+            a.add_diagonal(&vec![MASS; self.len()]);
+            for (i, j, k) in self.springs() {
+                let at = |r, c| a.pattern.find(r, c).expect("in the pattern");
+                let (ii, jj, ij, ji) = (at(i, i), at(j, j), at(i, j), at(j, i));
+                a.values[ii] += k;
+                a.values[jj] += k;
+                a.values[ij] -= k;
+                a.values[ji] -= k;
+            }
+        }
+
+        fn rest_positions(&self) -> &[Vec3] {
+            &self.positions
+        }
+
+        fn is_projected(&self) -> bool {
+            true
+        }
+    }
+
+    fn strategies() -> Vec<PreconditionerKind> {
+        vec![
+            PreconditionerKind::Identity,
+            PreconditionerKind::Jacobi,
+            PreconditionerKind::BlockJacobi,
+            PreconditionerKind::Amg,
+            #[cfg(feature = "direct")]
+            PreconditionerKind::Cholesky,
+        ]
+    }
+
+    #[test]
+    fn every_strategy_follows_a_pattern_that_grows_and_shrinks() {
+        let side = 8;
+        let n = side * side * side;
+        // Contacts between opposite faces of the lattice: new blocks far from the diagonal.
+        let far = |count: usize, offset: usize| -> Vec<(usize, usize)> {
+            (0..count)
+                .map(|c| (c + offset, n - 1 - c - offset))
+                .collect()
+        };
+        let steps = [
+            Vec::new(),
+            far(20, 0),
+            far(40, 3),
+            far(5, 1),
+            far(5, 1),
+            Vec::new(),
+        ];
+        for kind in strategies() {
+            let params = LinearSolverParams {
+                kind,
+                amg: amg::AmgParams::default(),
+                f32_matrix: false,
+                cholesky_reuse: true,
+            };
+            let mut solver = make_solver(&params, n);
+            let mut system = Springs::new(side);
+            let mut free = vec![Vec3::repeat(1.0); n];
+            free[0] = Vec3::zeros();
+            let cg = CgParams {
+                tolerance: 1e-10,
+                max_iterations: 5000,
+            };
+            let mut changes = 0;
+            let mut last = None;
+            for (step, extra) in steps.iter().enumerate() {
+                if last.as_ref() != Some(extra) {
+                    system.set_extra(extra.clone());
+                    changes += usize::from(step > 0);
+                }
+                last = Some(extra.clone());
+                let b: Vec<Vec3> = (0..n)
+                    .map(|i| {
+                        Vec3::new((i % 7) as f64, 1.0, -((i % 3) as f64)).component_mul(&free[i])
+                    })
+                    .collect();
+                solver.prepare(&mut system, &free);
+                let mut x = vec![Vec3::zeros(); n];
+                let info = solver
+                    .solve(&mut system, &b, &mut x, &free, &cg)
+                    .unwrap_or_else(|e| panic!("{kind:?}, step {step}: {e}"));
+                assert!(info.converged, "{kind:?}, step {step}: {info:?}");
+                // The true residual of the constrained system, by the matrix-free product.
+                let mut ax = vec![Vec3::zeros(); n];
+                system.apply(&x, &mut ax);
+                let residual: f64 = (0..n)
+                    .map(|i| (b[i] - ax[i]).component_mul(&free[i]).norm_squared())
+                    .sum::<f64>()
+                    .sqrt();
+                let norm: f64 = b.iter().map(|v| v.norm_squared()).sum::<f64>().sqrt();
+                assert!(
+                    residual <= 1e-8 * norm,
+                    "{kind:?}, step {step}: residual {residual:e} of {norm:e}"
+                );
+            }
+            let report = solver.report();
+            if matches!(kind, PreconditionerKind::Amg) {
+                assert_eq!(report.pattern_changes, changes, "{kind:?}: {report:?}");
+            }
+            #[cfg(feature = "direct")]
+            if matches!(kind, PreconditionerKind::Cholesky) {
+                assert_eq!(report.pattern_changes, changes, "{kind:?}: {report:?}");
+            }
+        }
+    }
+}
