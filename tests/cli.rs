@@ -422,6 +422,36 @@ fn bad_scene_values_name_file_line_and_key() {
     );
 }
 
+/// A mesh or positions file the scene names but that does not exist is reported at the key
+/// that names it.
+#[test]
+fn missing_scene_files_are_named_at_their_key() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, line, key, file) in [
+        (
+            "gravity = [0, 0, 0]\n[mesh]\nfile = \"nowhere.msh\"\n",
+            3,
+            "mesh.file",
+            "nowhere.msh",
+        ),
+        (
+            "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1], cells = [1,1,1] } }\n[initial]\n\npositions = \"squashed.txt\"\n",
+            5,
+            "initial.positions",
+            "squashed.txt",
+        ),
+    ] {
+        std::fs::write(dir.path().join("s.toml"), text).unwrap();
+        let out = tetsim(dir.path(), &["run", "s.toml", "-q"]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains(&format!("s.toml:{line}:1: {key}: ")) && err.contains(file),
+            "{err}"
+        );
+    }
+}
+
 #[test]
 fn compare_tabulates_every_strategy() {
     let dir = tempfile::tempdir().unwrap();

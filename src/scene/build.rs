@@ -14,7 +14,7 @@ use crate::mesh::generate::box_mesh;
 use crate::mesh::ordering::{Renumbering, VertexOrder};
 use crate::sim::{Simulation, State};
 
-use super::locate::key;
+use super::locate::{Seg, key};
 use super::schema::{
     Generator, IntegratorName, OnFailureName, PreconditionerName, RegionSpec, Scene,
 };
@@ -56,7 +56,8 @@ impl Scene {
                     crate::io::ReadOptions {
                         force: self.mesh.force,
                     },
-                )?;
+                )
+                .map_err(|e| self.unreadable(&key!["mesh", "file"], e))?;
                 log::info!(
                     "{}: {}",
                     path.display(),
@@ -181,6 +182,17 @@ impl Scene {
         Ok(boundary)
     }
 
+    /// A file the scene names at `key` that cannot be opened is reported at that key's line;
+    /// errors inside the file keep the file's own location.
+    fn unreadable(&self, key: &[Seg], error: Error) -> Error {
+        match error {
+            Error::Io { path, source } => {
+                self.error_at(key, format!("{}: {source}", path.display()))
+            }
+            other => other,
+        }
+    }
+
     /// The initial state: rest or file positions, the initial velocity on free components.
     pub fn initial_state(&self, body: &ElasticBody) -> Result<State> {
         self.initial_state_renumbered(body, None)
@@ -195,7 +207,8 @@ impl Scene {
     ) -> Result<State> {
         let mut state = Simulation::rest_state(body);
         if let Some(file) = &self.initial.positions {
-            let x = crate::io::read_positions(&self.resolve(file), body.vertex_count())?;
+            let x = crate::io::read_positions(&self.resolve(file), body.vertex_count())
+                .map_err(|e| self.unreadable(&key!["initial", "positions"], e))?;
             state.x = match renumbering {
                 Some(r) => r.to_new(&x),
                 None => x,
