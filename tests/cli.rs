@@ -318,10 +318,138 @@ fn empty_region_is_named() {
     let out = tetsim(dir.path(), &["run", "s.toml"]);
     assert!(!out.status.success());
     let err = stderr(&out);
+    // At the entry's `region` key (line 5), not just its `[[fixed]]` header.
     assert!(
-        err.contains("s.toml:4:") && err.contains("no vertices"),
+        err.contains("s.toml:5:1: [[fixed]] #1 region: ") && err.contains("no vertices"),
         "{err}"
     );
+}
+
+/// Every bad value is refused by the real binary before anything runs: exit code 1, nothing
+/// written, and one message naming the file, the exact line of the offending key (inside an
+/// inline table or the second `[[fixed]]` entry too) and the key itself.
+#[test]
+fn bad_scene_values_name_file_line_and_key() {
+    const MESH: &str =
+        "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1], cells = [1,1,1] } }\n";
+    // (scene text before [mesh], line of the offending key, the key as named, a word of the why)
+    let cases: &[(&str, usize, &str, &str)] = &[
+        (
+            "[solver]\ndt = 0.1\nnewton_tolerance = 0\n",
+            3,
+            "solver.newton_tolerance",
+            "must be positive and finite, got 0",
+        ),
+        (
+            "[solver]\ncg_tolerance = -1\n",
+            2,
+            "solver.cg_tolerance",
+            "got -1",
+        ),
+        (
+            "[solver]\nsubsteps = 0\n",
+            2,
+            "solver.substeps",
+            "at least 1",
+        ),
+        (
+            "[solver]\nframes = 3\n\ndt = 0\n",
+            4,
+            "solver.dt",
+            "positive",
+        ),
+        (
+            "[material]\ndensity = -1\n",
+            2,
+            "material.density",
+            "got -1",
+        ),
+        (
+            "[[fixed]]\nregion = { physical = \"xmin\" }\n\n[[fixed]]\nregion = { physical = \"xmax\" }\nmotion = { translate = [0.1, 0, 0] }\nduration = -1\n",
+            7,
+            "[[fixed]] #2 duration",
+            "got -1",
+        ),
+        ("gravity = [0.0, nan, 0.0]\n", 1, "gravity", "finite"),
+        (
+            "[[load]]\nregion = { physical = \"xmax\" }\ntraction = [0, -1, 0]\npoint_force = [0, -1, 0]\n",
+            4,
+            "[[load]] #1 point_force",
+            "exactly one of traction, total_force, point_force",
+        ),
+        (
+            "[material]\nyoungs_modulus = 1e5\npoisson_ratio = 0.5\n",
+            3,
+            "material.poisson_ratio",
+            "(-1, 0.5)",
+        ),
+        (
+            "[[fixed]]\nregion = { box = { min = [0,0,0], max = [1,1,1], mx = [2,2,2] } }\n",
+            2,
+            "[[fixed]] #1 region.box.mx",
+            "unexpected key",
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    for (i, &(text, line, key, why)) in cases.iter().enumerate() {
+        let name = format!("bad{i}.toml");
+        std::fs::write(dir.path().join(&name), format!("{text}{MESH}")).unwrap();
+        let out = tetsim(dir.path(), &["run", &name, "--out", "out", "-q"]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+        let message = err
+            .lines()
+            .find(|l| l.starts_with(&format!("error: {name}:")))
+            .unwrap_or_else(|| panic!("{name} not named in: {err}"));
+        let at_line = format!("error: {name}:{line}:");
+        assert!(
+            message.starts_with(&at_line),
+            "{name}: not line {line}: {message}"
+        );
+        // After `line:` comes `column: `, then the key path and what is wrong with it.
+        let (column, what) = message[at_line.len()..].split_once(": ").unwrap();
+        assert!(column.parse::<usize>().is_ok(), "{message}");
+        assert!(
+            what.starts_with(&format!("{key}: ")),
+            "{name}: not {key}: {message}"
+        );
+        assert!(what.contains(why), "{name}: no `{why}` in: {message}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    assert!(
+        !dir.path().join("out").exists(),
+        "a refused scene wrote output"
+    );
+}
+
+/// A mesh or positions file the scene names but that does not exist is reported at the key
+/// that names it.
+#[test]
+fn missing_scene_files_are_named_at_their_key() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, line, key, file) in [
+        (
+            "gravity = [0, 0, 0]\n[mesh]\nfile = \"nowhere.msh\"\n",
+            3,
+            "mesh.file",
+            "nowhere.msh",
+        ),
+        (
+            "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1], cells = [1,1,1] } }\n[initial]\n\npositions = \"squashed.txt\"\n",
+            5,
+            "initial.positions",
+            "squashed.txt",
+        ),
+    ] {
+        std::fs::write(dir.path().join("s.toml"), text).unwrap();
+        let out = tetsim(dir.path(), &["run", "s.toml", "-q"]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains(&format!("s.toml:{line}:1: {key}: ")) && err.contains(file),
+            "{err}"
+        );
+    }
 }
 
 #[test]

@@ -547,7 +547,7 @@ frames = 1
         .unwrap()
         .to_string();
     assert!(
-        err.contains("test.toml:3:") && err.contains("no tets"),
+        err.contains("test.toml:4:1: [[volume]] #1 region: ") && err.contains("no tets"),
         "{err}"
     );
 }

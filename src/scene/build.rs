@@ -1,0 +1,367 @@
+//! From a valid scene to the things that run: the mesh, the materials, the boundary conditions,
+//! the initial state and the solver settings, and [`Simulation::from_scene`] putting them
+//! together. Errors only building can find (a region that selects nothing, a group the mesh
+//! lacks) are located at their key like the validator's.
+
+use crate::boundary::{Boundary, Constraint, Load, Motion, Region};
+use crate::elastic::{ElasticBody, MaterialRegion};
+use crate::error::{Error, Result};
+use crate::integrator::{Integrator, OnFailure, PreconditionerKind, SolverParams};
+use crate::material::{Lame, Model};
+use crate::math::Vec3;
+use crate::mesh::TetMesh;
+use crate::mesh::generate::box_mesh;
+use crate::mesh::ordering::{Renumbering, VertexOrder};
+use crate::sim::{Simulation, State};
+
+use super::locate::{Seg, key};
+use super::schema::{
+    Generator, IntegratorName, OnFailureName, PreconditionerName, RegionSpec, Scene,
+};
+
+impl Scene {
+    /// Lamé parameters from (E, ν) or (μ, λ), with the range checks of each.
+    pub fn lame(&self) -> std::result::Result<Lame, String> {
+        let m = &self.material;
+        lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)
+    }
+
+    /// Model and density of the i-th `[[volume]]`, with `[material]`'s values where it is silent.
+    pub fn volume_material(&self, i: usize) -> std::result::Result<(Model, f64), String> {
+        let v = &self.volume[i];
+        let m = &self.material;
+        let own = v.youngs_modulus.is_some()
+            || v.poisson_ratio.is_some()
+            || v.mu.is_some()
+            || v.lambda.is_some();
+        let lame = if own {
+            lame_from(v.youngs_modulus, v.poisson_ratio, v.mu, v.lambda)?
+        } else {
+            self.lame()?
+        };
+        let density = v.density.unwrap_or(m.density);
+        if !(density > 0.0 && density.is_finite()) {
+            return Err(format!("density must be positive (kg/m³), got {density}"));
+        }
+        Ok((Model::new(v.model.unwrap_or(m.model), lame), density))
+    }
+
+    /// Build the mesh: read the file or run the generator.
+    pub fn build_mesh(&self) -> Result<TetMesh> {
+        match (&self.mesh.file, &self.mesh.generator) {
+            (Some(file), _) => {
+                let path = self.resolve(file);
+                let read = crate::io::read_mesh_with(
+                    &path,
+                    crate::io::ReadOptions {
+                        force: self.mesh.force,
+                    },
+                )
+                .map_err(|e| self.unreadable(&key!["mesh", "file"], e))?;
+                log::info!(
+                    "{}: {}",
+                    path.display(),
+                    read.report.to_string().trim_end().replace('\n', "; ")
+                );
+                for (severity, problem) in read.diagnosis.problems() {
+                    log::warn!("{}: {severity:?}: {problem}", path.display());
+                }
+                Ok(read.mesh)
+            }
+            (None, Some(Generator::Box { min, max, cells })) => {
+                Ok(box_mesh(Vec3::from(*min), Vec3::from(*max), *cells))
+            }
+            (None, None) => Err(Error::parameter("mesh", "give a mesh file or a generator")),
+        }
+    }
+
+    /// The solver settings.
+    pub fn solver_params(&self) -> SolverParams {
+        let s = &self.solver;
+        SolverParams {
+            integrator: match s.integrator {
+                IntegratorName::BackwardEuler => Integrator::BackwardEuler,
+                IntegratorName::Quasistatic => Integrator::Quasistatic,
+            },
+            dt: s.dt,
+            frames: s.frames,
+            substeps: s.substeps,
+            rayleigh_stiffness: s.rayleigh_stiffness,
+            rayleigh_mass: s.rayleigh_mass,
+            newton_tolerance: s.newton_tolerance,
+            newton_max_iterations: s.newton_max_iterations,
+            cg: crate::linear::cg::CgParams {
+                tolerance: s.cg_tolerance,
+                max_iterations: s.cg_max_iterations,
+            },
+            definiteness: s.definiteness,
+            preconditioner: match s.preconditioner {
+                PreconditionerName::BlockJacobi => PreconditionerKind::BlockJacobi,
+                PreconditionerName::Jacobi => PreconditionerKind::Jacobi,
+                PreconditionerName::None => PreconditionerKind::Identity,
+                PreconditionerName::Amg => PreconditionerKind::Amg,
+                #[cfg(feature = "direct")]
+                PreconditionerName::Cholesky => PreconditionerKind::Cholesky,
+                // `validate` rejects it; only a scene changed in code after loading gets here.
+                #[cfg(not(feature = "direct"))]
+                PreconditionerName::Cholesky => {
+                    log::warn!("preconditioner = \"cholesky\" needs --features direct; using amg");
+                    PreconditionerKind::Amg
+                }
+            },
+            amg: crate::linear::amg::AmgParams::default(),
+            line_search: s.line_search,
+            inexact_newton: s.inexact_newton,
+            f32_matrix: s.f32_matrix,
+            cholesky_reuse: s.cholesky_reuse,
+            on_failure: match s.on_failure {
+                OnFailureName::Retry => OnFailure::Retry,
+                OnFailureName::Continue => OnFailure::Continue,
+                OnFailureName::Stop => OnFailure::Stop,
+            },
+            max_step_cuts: s.max_step_cuts,
+        }
+    }
+
+    /// Constraints, loads and gravity on `mesh`.
+    pub fn build_boundary(&self, mesh: &TetMesh) -> Result<Boundary> {
+        self.build_boundary_renumbered(mesh, None)
+    }
+
+    /// [`Scene::build_boundary`] on a renumbered mesh: `vertices = [...]` lists name the input
+    /// mesh's vertices and are mapped through `renumbering`.
+    pub fn build_boundary_renumbered(
+        &self,
+        mesh: &TetMesh,
+        renumbering: Option<&Renumbering>,
+    ) -> Result<Boundary> {
+        let mut boundary = Boundary {
+            gravity: Vec3::from(self.gravity),
+            ..Default::default()
+        };
+        for (i, fixed) in self.fixed.iter().enumerate() {
+            let vertices = region(&fixed.region, renumbering)
+                .select(mesh)
+                .map_err(|m| self.error_at(&key!["fixed", i, "region"], m))?;
+            let mut components = [true; 3];
+            if let Some(list) = &fixed.components {
+                components = [false; 3];
+                for c in list {
+                    components[*c as usize] = true;
+                }
+            }
+            let motion = fixed.motion.as_ref().map_or(Motion::default(), |m| Motion {
+                translate: Vec3::from(m.translate),
+                rotate_degrees: m.rotate_degrees,
+                axis: Vec3::from(m.axis),
+                center: Vec3::from(m.center),
+            });
+            boundary.constraints.push(Constraint {
+                vertices,
+                components,
+                motion,
+                duration: fixed.duration,
+                until: fixed.until,
+            });
+        }
+        for (i, spec) in self.load.iter().enumerate() {
+            let vertices = region(&spec.region, renumbering)
+                .select(mesh)
+                .map_err(|m| self.error_at(&key!["load", i, "region"], m))?;
+            let mut load = if let Some(t) = spec.traction {
+                Load::traction(mesh, &vertices, Vec3::from(t))
+                    .map_err(|m| self.error_at(&key!["load", i, "traction"], m))?
+            } else if let Some(f) = spec.total_force {
+                Load::total_force(mesh, &vertices, Vec3::from(f))
+            } else {
+                Load::point_force(&vertices, Vec3::from(spec.point_force.unwrap_or_default()))
+            };
+            load.duration = spec.duration;
+            boundary.loads.push(load);
+        }
+        Ok(boundary)
+    }
+
+    /// A file the scene names at `key` that cannot be opened is reported at that key's line;
+    /// errors inside the file keep the file's own location.
+    fn unreadable(&self, key: &[Seg], error: Error) -> Error {
+        match error {
+            Error::Io { path, source } => {
+                self.error_at(key, format!("{}: {source}", path.display()))
+            }
+            other => other,
+        }
+    }
+
+    /// The initial state: rest or file positions, the initial velocity on free components.
+    pub fn initial_state(&self, body: &ElasticBody) -> Result<State> {
+        self.initial_state_renumbered(body, None)
+    }
+
+    /// [`Scene::initial_state`] for a body on a renumbered mesh: the positions file lists the
+    /// input mesh's vertices in its order.
+    pub fn initial_state_renumbered(
+        &self,
+        body: &ElasticBody,
+        renumbering: Option<&Renumbering>,
+    ) -> Result<State> {
+        let mut state = Simulation::rest_state(body);
+        if let Some(file) = &self.initial.positions {
+            let x = crate::io::read_positions(&self.resolve(file), body.vertex_count())
+                .map_err(|e| self.unreadable(&key!["initial", "positions"], e))?;
+            state.x = match renumbering {
+                Some(r) => r.to_new(&x),
+                None => x,
+            };
+        }
+        state
+            .v
+            .iter_mut()
+            .for_each(|v| *v = Vec3::from(self.initial.velocity));
+        Ok(state)
+    }
+}
+
+fn region(spec: &RegionSpec, renumbering: Option<&Renumbering>) -> Region {
+    match spec {
+        RegionSpec::Box { min, max } => Region::Box {
+            min: Vec3::from(*min),
+            max: Vec3::from(*max),
+        },
+        RegionSpec::Plane { point, normal } => Region::Plane {
+            point: Vec3::from(*point),
+            normal: Vec3::from(*normal),
+        },
+        RegionSpec::Vertices(v) => Region::Vertices(match renumbering {
+            // Out-of-range indices stay as given, for the error message.
+            Some(r) => v
+                .iter()
+                .map(|&i| r.vertex_new.get(i).copied().unwrap_or(i))
+                .collect(),
+            None => v.clone(),
+        }),
+        RegionSpec::Physical(name) => Region::Physical(name.clone()),
+    }
+}
+
+impl Simulation {
+    /// Everything a scene describes, ready to step.
+    pub fn from_scene(scene: &Scene) -> Result<Simulation> {
+        let file_mesh = scene.build_mesh()?;
+        let order = match scene.mesh.reorder {
+            // A generator's lattice order is already local (see `mesh::ordering`).
+            VertexOrder::Auto if scene.mesh.generator.is_some() => VertexOrder::None,
+            order => order,
+        };
+        let renumbering = Renumbering::new(&file_mesh, order);
+        let mesh = match &renumbering {
+            Some(r) => r.apply(&file_mesh),
+            None => file_mesh,
+        };
+        let lame = scene.lame().map_err(|m| Error::parameter("material", m))?;
+        let model = Model::new(scene.material.model, lame);
+        let mesh_path = scene.mesh.file.as_ref().map(|f| scene.resolve(f));
+        let mut regions = Vec::with_capacity(scene.volume.len());
+        for (i, volume) in scene.volume.iter().enumerate() {
+            let (model, density) = scene
+                .volume_material(i)
+                .map_err(|m| scene.error_at(&key!["volume", i], m))?;
+            let tets = select_tets(&volume.region, &mesh)
+                .map_err(|m| scene.error_at(&key!["volume", i, "region"], m))?;
+            regions.push(MaterialRegion {
+                model,
+                density,
+                tets,
+            });
+        }
+        let body = ElasticBody::with_regions(mesh, model, scene.material.density, regions)
+            .map_err(|e| match e {
+                Error::Mesh { problem, .. } => Error::Mesh {
+                    path: mesh_path.clone(),
+                    problem,
+                },
+                other => other,
+            })?;
+        let boundary = scene.build_boundary_renumbered(&body.mesh, renumbering.as_ref())?;
+        let initial = scene.initial_state_renumbered(&body, renumbering.as_ref())?;
+        Ok(
+            Simulation::new(body, boundary, scene.solver_params(), initial)?
+                .with_renumbering(renumbering),
+        )
+    }
+}
+
+/// Lamé parameters from (E, ν) (defaults 1e5 Pa, 0.3) or (μ, λ), range-checked.
+fn lame_from(
+    e: Option<f64>,
+    nu: Option<f64>,
+    mu: Option<f64>,
+    lambda: Option<f64>,
+) -> std::result::Result<Lame, String> {
+    match (e, nu, mu, lambda) {
+        (e, nu, None, None) => {
+            let (e, nu) = (e.unwrap_or(1e5), nu.unwrap_or(0.3));
+            if !(e > 0.0 && e.is_finite()) {
+                return Err(format!("Young's modulus must be positive (Pa), got {e}"));
+            }
+            if !(nu > -1.0 && nu < 0.5) {
+                return Err(format!(
+                    "Poisson ratio must lie in (-1, 0.5), got {nu} (0.5 is incompressible: λ would be infinite)"
+                ));
+            }
+            Ok(Lame::from_young_poisson(e, nu))
+        }
+        (None, None, Some(mu), Some(lambda)) => {
+            if !(mu > 0.0 && mu.is_finite() && lambda.is_finite() && 3.0 * lambda + 2.0 * mu > 0.0)
+            {
+                return Err(format!(
+                    "need μ > 0 and 3λ + 2μ > 0 (Pa), got μ = {mu}, λ = {lambda}"
+                ));
+            }
+            Ok(Lame { mu, lambda })
+        }
+        _ => {
+            Err("give youngs_modulus and poisson_ratio, or mu and lambda (both of one pair)".into())
+        }
+    }
+}
+
+/// The tets a `[[volume]]` region selects: a named group's tets, or the tets whose centroid
+/// lies in a box or on/behind a plane.
+fn select_tets(spec: &RegionSpec, mesh: &TetMesh) -> std::result::Result<Vec<usize>, String> {
+    let centroid = |t: usize| {
+        mesh.tets[t]
+            .iter()
+            .map(|&v| mesh.positions[v])
+            .sum::<Vec3>()
+            / 4.0
+    };
+    let tets: Vec<usize> = match spec {
+        RegionSpec::Physical(name) => match mesh.group(name) {
+            Some(g) if !g.tets.is_empty() => g.tets.clone(),
+            Some(g) => {
+                return Err(format!(
+                    "group \"{name}\" holds no tets (a dimension-{} group); a material needs a volume group",
+                    g.dim
+                ));
+            }
+            None => return region(spec, None).select(mesh).map(|_| Vec::new()),
+        },
+        RegionSpec::Box { min, max } => (0..mesh.tets.len())
+            .filter(|&t| (0..3).all(|k| centroid(t)[k] >= min[k] && centroid(t)[k] <= max[k]))
+            .collect(),
+        RegionSpec::Plane { point, normal } => {
+            let n = Vec3::from(*normal);
+            (0..mesh.tets.len())
+                .filter(|&t| (centroid(t) - Vec3::from(*point)).dot(&n) >= 0.0)
+                .collect()
+        }
+        RegionSpec::Vertices(_) => {
+            return Err("a material region needs tets: use physical, box or plane".into());
+        }
+    };
+    if tets.is_empty() {
+        return Err("the region selects no tets".into());
+    }
+    Ok(tets)
+}

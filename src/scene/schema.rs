@@ -1,0 +1,421 @@
+//! The scene schema: the serde structs and enums a scene file deserializes into, one per TOML
+//! table, with a default for every key and unknown keys rejected (`deny_unknown_fields`).
+//! Value ranges are checked by `validate`, not here; `docs/scene-reference.md` lists every key.
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use crate::integrator::SolverParams;
+use crate::material::{Definiteness, ModelKind};
+use crate::mesh::ordering::VertexOrder;
+
+/// A parsed, validated scene. Every field mirrors a TOML table or key of SPEC §10.
+///
+/// Defaults are per field (not `Scene::default()`, which is the built-in default *scene*).
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Gravitational acceleration, m/s². Default [0, −9.81, 0].
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// `[mesh]`.
+    #[serde(default)]
+    pub mesh: MeshSpec,
+    /// `[material]`.
+    #[serde(default)]
+    pub material: MaterialSpec,
+    /// `[[fixed]]`: Dirichlet conditions.
+    #[serde(default)]
+    pub fixed: Vec<FixedSpec>,
+    /// `[[load]]`: dead loads.
+    #[serde(default)]
+    pub load: Vec<LoadSpec>,
+    /// `[[volume]]`: other materials on parts of the mesh.
+    #[serde(default)]
+    pub volume: Vec<VolumeSpec>,
+    /// `[initial]`.
+    #[serde(default)]
+    pub initial: InitialSpec,
+    /// `[solver]`.
+    #[serde(default)]
+    pub solver: SolverSpec,
+    /// `[output]`.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// The scene file (for messages); not a TOML key.
+    #[serde(skip)]
+    pub path: PathBuf,
+    /// The folder relative paths are resolved against; not a TOML key.
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+    /// The scene's text, to point messages at lines; not a TOML key.
+    #[serde(skip)]
+    pub(crate) source: String,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, -9.81, 0.0]
+}
+
+/// `[mesh]`: a file or a generator (exactly one).
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Mesh file: .msh (v2/v4), .node (+ .ele), .vtk, .vtu, .mesh; relative to the scene.
+    pub file: Option<PathBuf>,
+    /// Built-in generator.
+    pub generator: Option<Generator>,
+    /// Load a mesh the doctor finds bad (degenerate or duplicate tets, …) anyway. Default false;
+    /// `tetsim run --force` sets it.
+    #[serde(default)]
+    pub force: bool,
+    /// Internal vertex and tet numbering for memory locality (output keeps the file's):
+    /// "auto" (default: a generator's order, RCM for files), "rcm", "morton", "none", or
+    /// "random" (the worst case, for benchmarks).
+    #[serde(default)]
+    pub reorder: VertexOrder,
+}
+
+/// Built-in mesh generators.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub enum Generator {
+    /// A box of `cells` cubes, each split into 6 Kuhn tets; face groups xmin … zmax.
+    Box {
+        /// Lower corner, m.
+        min: [f64; 3],
+        /// Upper corner, m.
+        max: [f64; 3],
+        /// Cubes along x, y, z.
+        cells: [usize; 3],
+    },
+}
+
+/// `[material]`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MaterialSpec {
+    /// Constitutive model: "neo-hookean" (default), "neo-hookean-clamped", "corotated",
+    /// "stable-neo-hookean",
+    /// "st-venant-kirchhoff", "mooney-rivlin", "linear".
+    pub model: ModelKind,
+    /// Young's modulus E, Pa. Default 1e5 (when neither E, ν nor μ, λ are given).
+    pub youngs_modulus: Option<f64>,
+    /// Poisson ratio ν, in (−1, 0.5). Default 0.3.
+    pub poisson_ratio: Option<f64>,
+    /// Lamé μ, Pa (instead of E, ν).
+    pub mu: Option<f64>,
+    /// Lamé λ, Pa (instead of E, ν).
+    pub lambda: Option<f64>,
+    /// Density, kg/m³. Default 1000.
+    pub density: f64,
+}
+
+impl Default for MaterialSpec {
+    fn default() -> Self {
+        MaterialSpec {
+            model: ModelKind::NeoHookean,
+            youngs_modulus: None,
+            poisson_ratio: None,
+            mu: None,
+            lambda: None,
+            density: 1000.0,
+        }
+    }
+}
+
+/// `[[volume]]`: a material and density for part of the mesh. Keys left out take the value of
+/// `[material]`; E, ν and μ, λ follow the same rules as there.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeSpec {
+    /// Which tets: `{ physical = "name" }` (the tets of a Gmsh physical volume), or a `box` /
+    /// `plane` region (the tets whose centroid it holds).
+    pub region: RegionSpec,
+    /// Constitutive model.
+    pub model: Option<ModelKind>,
+    /// Young's modulus, Pa.
+    pub youngs_modulus: Option<f64>,
+    /// Poisson ratio.
+    pub poisson_ratio: Option<f64>,
+    /// Lamé μ, Pa.
+    pub mu: Option<f64>,
+    /// Lamé λ, Pa.
+    pub lambda: Option<f64>,
+    /// Density, kg/m³.
+    pub density: Option<f64>,
+}
+
+/// A region, as TOML writes it: `{ box = { min, max } }`, `{ plane = { point, normal } }`,
+/// `{ vertices = [...] }` or `{ physical = "name" }`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, rename_all = "kebab-case")]
+pub enum RegionSpec {
+    /// Axis-aligned box, inclusive.
+    Box {
+        /// Lower corner, m.
+        min: [f64; 3],
+        /// Upper corner, m.
+        max: [f64; 3],
+    },
+    /// On the plane or on the side its normal points to.
+    Plane {
+        /// A point on the plane, m.
+        point: [f64; 3],
+        /// Normal.
+        normal: [f64; 3],
+    },
+    /// 0-based vertex indices.
+    Vertices(Vec<usize>),
+    /// A named mesh group (Gmsh physical group, or xmin … zmax of the box generator).
+    Physical(String),
+}
+
+/// `motion = { translate, rotate_degrees, axis, center }`, reached at full ramp.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MotionSpec {
+    /// Translation, m. Default 0.
+    pub translate: [f64; 3],
+    /// Rotation angle, degrees. Default 0.
+    pub rotate_degrees: f64,
+    /// Rotation axis. Default [1, 0, 0].
+    pub axis: [f64; 3],
+    /// A point on the axis, m. Default the origin.
+    pub center: [f64; 3],
+}
+
+impl Default for MotionSpec {
+    fn default() -> Self {
+        MotionSpec {
+            translate: [0.0; 3],
+            rotate_degrees: 0.0,
+            axis: [1.0, 0.0, 0.0],
+            center: [0.0; 3],
+        }
+    }
+}
+
+/// A constrained component name.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Component {
+    /// x
+    X,
+    /// y
+    Y,
+    /// z
+    Z,
+}
+
+/// `[[fixed]]`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FixedSpec {
+    /// Which vertices.
+    pub region: RegionSpec,
+    /// Constrained components. Default all three.
+    pub components: Option<Vec<Component>>,
+    /// Prescribed motion. Default: held in place.
+    pub motion: Option<MotionSpec>,
+    /// Ramp duration, s (backward Euler). Default: the whole run.
+    pub duration: Option<f64>,
+    /// Release time, s (quasistatic: load factor): after it the vertices are free. Default:
+    /// never released.
+    pub until: Option<f64>,
+}
+
+/// `[[load]]`: one of traction, total_force, point_force.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    /// Which vertices (and the boundary faces among them).
+    pub region: RegionSpec,
+    /// Force per unit rest area on the region's boundary faces, Pa.
+    pub traction: Option<[f64; 3]>,
+    /// Total force spread over the region's boundary faces by area (or its vertices), N.
+    pub total_force: Option<[f64; 3]>,
+    /// Force on each selected vertex, N.
+    pub point_force: Option<[f64; 3]>,
+    /// Ramp duration, s (backward Euler). Default: the whole run; 0: at once.
+    pub duration: Option<f64>,
+}
+
+/// `[initial]`.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitialSpec {
+    /// Initial positions: a text file of one "x y z" line per vertex (same count and order as
+    /// the mesh); relative to the scene. Default: the rest positions.
+    pub positions: Option<PathBuf>,
+    /// Initial velocity of every free vertex, m/s. Default 0.
+    pub velocity: [f64; 3],
+}
+
+/// `[solver]`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSpec {
+    /// "backward-euler" (default) or "quasistatic".
+    pub integrator: IntegratorName,
+    /// Seconds per frame. Default 1/30.
+    pub dt: f64,
+    /// Frames (backward Euler) or load steps (quasistatic). Default 60.
+    pub frames: usize,
+    /// Time steps per frame. Default 1.
+    pub substeps: usize,
+    /// Rayleigh stiffness damping γ, s. Default 0.
+    pub rayleigh_stiffness: f64,
+    /// Rayleigh mass damping α, 1/s. Default 0.
+    pub rayleigh_mass: f64,
+    /// Newton tolerance relative to the step's first residual. Default 1e-6.
+    pub newton_tolerance: f64,
+    /// Newton iterations per step. Default 20.
+    pub newton_max_iterations: usize,
+    /// CG tolerance relative to the right-hand side. Default 1e-6.
+    pub cg_tolerance: f64,
+    /// CG iterations per solve. Default 2000.
+    pub cg_max_iterations: usize,
+    /// Per-element fix of an indefinite tangent: "adaptive" (default), "teran" (alias
+    /// "projected"), "analytic", "abs" or "none" (alias "exact"). See [`Definiteness`].
+    pub definiteness: Definiteness,
+    /// "amg" (default), "jacobi", "block-jacobi", "none", or "cholesky" (built with
+    /// `--features direct`).
+    pub preconditioner: PreconditionerName,
+    /// Backtracking line search. Default true.
+    pub line_search: bool,
+    /// Inexact Newton (CG only as tight as the Newton target needs). Default true.
+    pub inexact_newton: bool,
+    /// Assembled matrix CG multiplies with (AMG path): false f64 full, true f32 upper triangle.
+    pub f32_matrix: bool,
+    /// "cholesky": keep the factor while CG converges fast (default true) or factor at every
+    /// Newton iterate (false).
+    pub cholesky_reuse: bool,
+    /// "retry" (default), "continue" or "stop".
+    pub on_failure: OnFailureName,
+    /// Step halvings allowed by "retry". Default 4.
+    pub max_step_cuts: usize,
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        let p = SolverParams::default();
+        SolverSpec {
+            integrator: IntegratorName::BackwardEuler,
+            dt: p.dt,
+            frames: p.frames,
+            substeps: p.substeps,
+            rayleigh_stiffness: p.rayleigh_stiffness,
+            rayleigh_mass: p.rayleigh_mass,
+            newton_tolerance: p.newton_tolerance,
+            newton_max_iterations: p.newton_max_iterations,
+            cg_tolerance: p.cg.tolerance,
+            cg_max_iterations: p.cg.max_iterations,
+            definiteness: p.definiteness,
+            preconditioner: PreconditionerName::Amg,
+            line_search: p.line_search,
+            inexact_newton: p.inexact_newton,
+            f32_matrix: p.f32_matrix,
+            cholesky_reuse: p.cholesky_reuse,
+            on_failure: OnFailureName::Retry,
+            max_step_cuts: p.max_step_cuts,
+        }
+    }
+}
+
+/// Scene names of the integrators.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IntegratorName {
+    /// Backward Euler.
+    #[default]
+    BackwardEuler,
+    /// Quasistatic.
+    Quasistatic,
+}
+
+/// Scene names of the preconditioners.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PreconditionerName {
+    /// Jacobi.
+    Jacobi,
+    /// Block Jacobi.
+    BlockJacobi,
+    /// None.
+    None,
+    /// Smoothed-aggregation algebraic multigrid on the assembled system.
+    #[default]
+    Amg,
+    /// Sparse Cholesky of the assembled system (only in builds with the `direct` feature; the
+    /// scene is rejected otherwise).
+    Cholesky,
+}
+
+/// Scene names of the failure policies.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OnFailureName {
+    /// Retry with smaller steps, then continue.
+    #[default]
+    Retry,
+    /// Continue.
+    Continue,
+    /// Stop.
+    Stop,
+}
+
+/// `[output]`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputSpec {
+    /// Output folder, relative to the working directory. Default "out".
+    pub dir: PathBuf,
+    /// Write a surface OBJ per frame. Default true.
+    pub obj: bool,
+    /// Render `preview.png` (last frame) and `animation.gif` after the run. Default true.
+    pub pictures: bool,
+    /// Plot steps.csv into `steps_*.png` after the run. Default true.
+    pub plots: bool,
+    /// Colour field of the pictures: "displacement" (default), "J", "von-mises",
+    /// "energy-density" or "none".
+    pub field: String,
+    /// Size of `preview.png` in pixels. Default 800 × 600.
+    pub width: u32,
+    /// See `width`.
+    pub height: u32,
+    /// Size of the GIF frames in pixels. Default 480 × 360.
+    pub gif_width: u32,
+    /// See `gif_width`.
+    pub gif_height: u32,
+    /// Every k-th frame goes into the GIF (the last frame always does). Default 1.
+    pub gif_stride: usize,
+    /// Camera azimuth about the up (+y) axis, degrees. Default −35.
+    pub azimuth: f64,
+    /// Camera elevation above the horizon, degrees. Default 22.
+    pub elevation: f64,
+    /// Write 0 in steps.csv's wall_seconds column, so that every output file is byte-identical
+    /// across runs and thread counts (the times go to timings.csv either way). Default false.
+    pub deterministic: bool,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec {
+            dir: PathBuf::from("out"),
+            obj: true,
+            pictures: true,
+            plots: true,
+            field: "displacement".into(),
+            width: 800,
+            height: 600,
+            gif_width: 480,
+            gif_height: 360,
+            gif_stride: 1,
+            azimuth: -35.0,
+            elevation: 22.0,
+            deterministic: false,
+        }
+    }
+}

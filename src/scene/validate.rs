@@ -1,0 +1,652 @@
+//! The one scene validator. serde has already checked names and types; this checks every value
+//! the schema lets through but the physics cannot use, and reports the first bad one in the file
+//! as `file:line:column: key.path: what is wrong, got value`, at the line of the key itself
+//! (inside inline tables and `[[table]]` entries too).
+//!
+//! Every check goes through [`Validator::fail`] with a key path, so no message can lose its
+//! line. The library keeps its own guards (`sim::check_params`, `lame_from`, the region
+//! selection) for values built in code; a scene never reaches them with a bad value.
+
+use std::fmt::Display;
+
+use super::locate::{Locator, Seg, key};
+use super::schema::{
+    FixedSpec, Generator, LoadSpec, MeshSpec, OutputSpec, PreconditionerName, RegionSpec, Scene,
+    SolverSpec,
+};
+use crate::error::{Error, Result};
+
+/// How many `[[volume]]` entries a mesh can hold (materials are stored per tet in a byte).
+const MAX_VOLUMES: usize = u8::MAX as usize;
+
+/// `max_step_cuts` beyond this would ask for more than 2²⁰ substeps per frame.
+const MAX_STEP_CUTS: usize = 20;
+
+/// Check every value of `scene` (parsed from `scene.source`); the first bad one in the file is
+/// the error.
+pub(super) fn validate(scene: &Scene) -> Result<()> {
+    let mut v = Validator {
+        scene,
+        at: Locator::new(&scene.source),
+        problems: Vec::new(),
+    };
+    v.finite3(&key!["gravity"], scene.gravity, "m/s²");
+    v.mesh(&scene.mesh);
+    let m = &scene.material;
+    v.elastic(
+        &key!["material"],
+        [m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda],
+        Some(m.density),
+    );
+    v.volumes();
+    for (i, fixed) in scene.fixed.iter().enumerate() {
+        v.fixed(i, fixed);
+    }
+    for (i, load) in scene.load.iter().enumerate() {
+        v.load(i, load);
+    }
+    v.finite3(&key!["initial", "velocity"], scene.initial.velocity, "m/s");
+    v.solver(&scene.solver);
+    v.output(&scene.output);
+    v.finish()
+}
+
+struct Validator<'s> {
+    scene: &'s Scene,
+    at: Locator<'s>,
+    /// Every problem found, with its (line, column) for ordering.
+    problems: Vec<((usize, usize), Error)>,
+}
+
+/// `base` followed by `tail`: a key path inside a table or an entry.
+fn join<'a>(base: &[Seg<'a>], tail: &[Seg<'a>]) -> Vec<Seg<'a>> {
+    base.iter().chain(tail).copied().collect()
+}
+
+fn vec3(v: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", v[0], v[1], v[2])
+}
+
+impl Validator<'_> {
+    /// The one way a check fails: the message is prefixed with the key path and located at
+    /// the key's line (or its table's, for a key the file leaves at its default).
+    fn fail(&mut self, key: &[Seg], message: impl Display) {
+        let line_column = self.at.line_column(key);
+        let error = self.at.error(&self.scene.path, key, message);
+        self.problems.push((line_column, error));
+    }
+
+    /// The first problem in file order, if any.
+    fn finish(self) -> Result<()> {
+        match self.problems.into_iter().min_by_key(|(at, _)| *at) {
+            Some((_, error)) => Err(error),
+            None => Ok(()),
+        }
+    }
+
+    /// `value` > 0 and finite.
+    fn positive(&mut self, key: &[Seg], value: f64, unit: &str) {
+        if !(value > 0.0 && value.is_finite()) {
+            let unit = if unit.is_empty() {
+                String::new()
+            } else {
+                format!(" ({unit})")
+            };
+            self.fail(
+                key,
+                format!("must be positive and finite{unit}, got {value}"),
+            );
+        }
+    }
+
+    /// `value` ≥ 0 and finite.
+    fn non_negative(&mut self, key: &[Seg], value: f64, unit: &str) {
+        if !(value >= 0.0 && value.is_finite()) {
+            self.fail(
+                key,
+                format!("must be zero or positive and finite ({unit}), got {value}"),
+            );
+        }
+    }
+
+    fn at_least_one(&mut self, key: &[Seg], value: usize) {
+        if value == 0 {
+            self.fail(key, "must be at least 1, got 0");
+        }
+    }
+
+    fn finite3(&mut self, key: &[Seg], value: [f64; 3], unit: &str) {
+        if !value.iter().all(|c| c.is_finite()) {
+            self.fail(key, format!("must be finite ({unit}), got {}", vec3(value)));
+        }
+    }
+
+    fn mesh(&mut self, mesh: &MeshSpec) {
+        match (&mesh.file, &mesh.generator) {
+            (Some(_), Some(_)) => self.fail(
+                &key!["mesh", "generator"],
+                "give either file or generator, not both",
+            ),
+            (None, None) => self.fail(&key!["mesh", "file"], "give a mesh file or a generator"),
+            (None, Some(Generator::Box { min, max, cells })) => {
+                let base = key!["mesh", "generator", "box"];
+                self.finite3(&join(&base, &key!["min"]), *min, "m");
+                self.finite3(&join(&base, &key!["max"]), *max, "m");
+                if (0..3).any(|k| max[k] <= min[k] || max[k].is_nan() || min[k].is_nan()) {
+                    self.fail(
+                        &join(&base, &key!["max"]),
+                        format!(
+                            "must exceed min on every axis, got min = {}, max = {}",
+                            vec3(*min),
+                            vec3(*max)
+                        ),
+                    );
+                }
+                if cells.contains(&0) {
+                    self.fail(
+                        &join(&base, &key!["cells"]),
+                        format!("need at least one cell per axis, got {cells:?}"),
+                    );
+                }
+            }
+            (Some(_), None) => {}
+        }
+    }
+
+    /// Elastic constants `[youngs_modulus, poisson_ratio, mu, lambda]` and density of
+    /// `[material]` or a `[[volume]]` (at `base`): one pair or the other, each in range.
+    fn elastic(&mut self, base: &[Seg], constants: [Option<f64>; 4], density: Option<f64>) {
+        let [e, nu, mu, lambda] = constants;
+        let at = |k: &'static str| join(base, &key![k]);
+        let young_poisson = e.is_some() || nu.is_some();
+        match (mu, lambda) {
+            (None, None) => {}
+            _ if young_poisson => {
+                let k = if mu.is_some() { "mu" } else { "lambda" };
+                self.fail(
+                    &at(k),
+                    "give youngs_modulus and poisson_ratio, or mu and lambda, not both pairs",
+                );
+            }
+            (Some(_), None) => self.fail(
+                &at("mu"),
+                "give lambda too (or youngs_modulus and poisson_ratio instead)",
+            ),
+            (None, Some(_)) => self.fail(
+                &at("lambda"),
+                "give mu too (or youngs_modulus and poisson_ratio instead)",
+            ),
+            (Some(mu), Some(lambda)) => {
+                if !(mu > 0.0 && mu.is_finite()) {
+                    self.fail(&at("mu"), format!("μ must be positive (Pa), got {mu}"));
+                } else if !(lambda.is_finite() && 3.0 * lambda + 2.0 * mu > 0.0) {
+                    self.fail(
+                        &at("lambda"),
+                        format!("need 3λ + 2μ > 0 (Pa), got μ = {mu}, λ = {lambda}"),
+                    );
+                }
+            }
+        }
+        if let Some(e) = e
+            && !(e > 0.0 && e.is_finite())
+        {
+            self.fail(
+                &at("youngs_modulus"),
+                format!("Young's modulus must be positive (Pa), got {e}"),
+            );
+        }
+        if let Some(nu) = nu
+            && !(nu > -1.0 && nu < 0.5)
+        {
+            self.fail(
+                &at("poisson_ratio"),
+                format!(
+                    "Poisson ratio must lie in (-1, 0.5), got {nu} (0.5 is incompressible: λ would be infinite)"
+                ),
+            );
+        }
+        if let Some(rho) = density {
+            self.positive(&at("density"), rho, "kg/m³");
+        }
+    }
+
+    fn volumes(&mut self) {
+        let volumes = &self.scene.volume;
+        if volumes.len() > MAX_VOLUMES {
+            self.fail(
+                &key!["volume", MAX_VOLUMES],
+                format!("at most {MAX_VOLUMES} [[volume]] entries"),
+            );
+        }
+        for (i, v) in volumes.iter().enumerate() {
+            let base = key!["volume", i];
+            self.elastic(
+                &base,
+                [v.youngs_modulus, v.poisson_ratio, v.mu, v.lambda],
+                v.density,
+            );
+            if let RegionSpec::Vertices(_) = v.region {
+                self.fail(
+                    &join(&base, &key!["region", "vertices"]),
+                    "a material region needs tets: use physical, box or plane",
+                );
+            } else {
+                self.region(&join(&base, &key!["region"]), &v.region);
+            }
+        }
+    }
+
+    /// The values a region holds (what it selects needs the mesh: see `build`).
+    fn region(&mut self, base: &[Seg], region: &RegionSpec) {
+        let at = |tail: &[Seg<'static>]| join(base, tail);
+        match region {
+            RegionSpec::Box { min, max } => {
+                self.finite3(&at(&key!["box", "min"]), *min, "m");
+                self.finite3(&at(&key!["box", "max"]), *max, "m");
+            }
+            RegionSpec::Plane { point, normal } => {
+                self.finite3(&at(&key!["plane", "point"]), *point, "m");
+                if !(normal.iter().all(|c| c.is_finite()) && normal.iter().any(|&c| c != 0.0)) {
+                    self.fail(
+                        &at(&key!["plane", "normal"]),
+                        format!("must be finite and non-zero, got {}", vec3(*normal)),
+                    );
+                }
+            }
+            RegionSpec::Vertices(list) if list.is_empty() => self.fail(
+                &at(&key!["vertices"]),
+                "the list is empty: the region selects no vertices",
+            ),
+            RegionSpec::Vertices(_) | RegionSpec::Physical(_) => {}
+        }
+    }
+
+    fn fixed(&mut self, i: usize, fixed: &FixedSpec) {
+        let base = key!["fixed", i];
+        self.region(&join(&base, &key!["region"]), &fixed.region);
+        if let Some(m) = &fixed.motion {
+            let at = |k: &'static str| join(&base, &key!["motion", k]);
+            self.finite3(&at("translate"), m.translate, "m");
+            if !m.rotate_degrees.is_finite() {
+                self.fail(
+                    &at("rotate_degrees"),
+                    format!("must be finite (degrees), got {}", m.rotate_degrees),
+                );
+            }
+            self.finite3(&at("axis"), m.axis, "a direction");
+            self.finite3(&at("center"), m.center, "m");
+        }
+        if let Some(d) = fixed.duration {
+            self.non_negative(&join(&base, &key!["duration"]), d, "s");
+        }
+        if let Some(t) = fixed.until {
+            self.non_negative(&join(&base, &key!["until"]), t, "s, or a load factor");
+        }
+    }
+
+    fn load(&mut self, i: usize, load: &LoadSpec) {
+        let base = key!["load", i];
+        self.region(&join(&base, &key!["region"]), &load.region);
+        let forces = [
+            ("traction", load.traction, "Pa"),
+            ("total_force", load.total_force, "N"),
+            ("point_force", load.point_force, "N"),
+        ];
+        let given: Vec<_> = forces.iter().filter(|(_, f, _)| f.is_some()).collect();
+        match given.as_slice() {
+            [] => self.fail(
+                &base,
+                "needs exactly one of traction, total_force, point_force; got none",
+            ),
+            [(name, Some(force), unit)] => {
+                self.finite3(&join(&base, &key![*name]), *force, unit);
+            }
+            [(first, ..), (second, ..), ..] => self.fail(
+                &join(&base, &key![*second]),
+                format!(
+                    "needs exactly one of traction, total_force, point_force; got {first} and {second}"
+                ),
+            ),
+            [(_, None, _)] => unreachable!("only given forces are kept"),
+        }
+        if let Some(d) = load.duration {
+            self.non_negative(&join(&base, &key!["duration"]), d, "s");
+        }
+    }
+
+    fn solver(&mut self, s: &SolverSpec) {
+        let at = |k: &'static str| key!["solver", k];
+        self.positive(&at("dt"), s.dt, "s");
+        self.at_least_one(&at("frames"), s.frames);
+        self.at_least_one(&at("substeps"), s.substeps);
+        self.non_negative(&at("rayleigh_stiffness"), s.rayleigh_stiffness, "s");
+        self.non_negative(&at("rayleigh_mass"), s.rayleigh_mass, "1/s");
+        self.positive(&at("newton_tolerance"), s.newton_tolerance, "");
+        self.at_least_one(&at("newton_max_iterations"), s.newton_max_iterations);
+        self.positive(&at("cg_tolerance"), s.cg_tolerance, "");
+        self.at_least_one(&at("cg_max_iterations"), s.cg_max_iterations);
+        if s.max_step_cuts > MAX_STEP_CUTS {
+            self.fail(
+                &at("max_step_cuts"),
+                format!(
+                    "must be at most {MAX_STEP_CUTS} (2²⁰ substeps), got {}",
+                    s.max_step_cuts
+                ),
+            );
+        }
+        if s.preconditioner == PreconditionerName::Cholesky && !cfg!(feature = "direct") {
+            self.fail(
+                &at("preconditioner"),
+                "\"cholesky\" needs the sparse direct solver, which this tetsim was built \
+                 without: rebuild with `cargo build --release --features direct`",
+            );
+        }
+    }
+
+    fn output(&mut self, o: &OutputSpec) {
+        let at = |k: &'static str| key!["output", k];
+        if o.field != "none"
+            && let Err(e) = o.field.parse::<crate::render::FieldKind>()
+        {
+            let message = match e {
+                Error::Parameter { message, .. } => message,
+                other => other.to_string(),
+            };
+            self.fail(&at("field"), message);
+        }
+        for (k, value) in [
+            ("width", o.width),
+            ("height", o.height),
+            ("gif_width", o.gif_width),
+            ("gif_height", o.gif_height),
+        ] {
+            if !(16..=8192).contains(&value) {
+                self.fail(
+                    &at(k),
+                    format!("must be between 16 and 8192 pixels, got {value}"),
+                );
+            }
+        }
+        self.at_least_one(&at("gif_stride"), o.gif_stride);
+        for (k, value) in [("azimuth", o.azimuth), ("elevation", o.elevation)] {
+            if !value.is_finite() {
+                self.fail(&at(k), format!("must be finite (degrees), got {value}"));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+
+    const MESH: &str =
+        "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1], cells = [1,1,1] } }\n";
+
+    /// Parse `rest` + `MESH`; the error's line and message.
+    fn error(rest: &str) -> (usize, String) {
+        let text = format!("{rest}{MESH}");
+        match Scene::parse(&text, Path::new("s.toml"), Path::new(".")) {
+            Err(Error::Scene { line, message, .. }) => (line, message),
+            other => panic!("expected a scene error for\n{text}\ngot {other:?}"),
+        }
+    }
+
+    /// Each bad value: the scene text before `[mesh]`, the line of the offending key in it, and
+    /// the start of the message (the key path) plus a word it must contain.
+    #[test]
+    fn every_bad_value_is_named_at_its_key_line() {
+        let cases: &[(&str, usize, &str, &str)] = &[
+            (
+                "[solver]\nnewton_tolerance = 0\n",
+                2,
+                "solver.newton_tolerance: ",
+                "got 0",
+            ),
+            (
+                "[solver]\ndt = 0.1\ncg_tolerance = -1\n",
+                3,
+                "solver.cg_tolerance: ",
+                "got -1",
+            ),
+            (
+                "[solver]\nsubsteps = 0\n",
+                2,
+                "solver.substeps: ",
+                "at least 1",
+            ),
+            ("solver.dt = 0\n", 1, "solver.dt: ", "positive"),
+            (
+                "[solver]\nrayleigh_mass = -0.5\n",
+                2,
+                "solver.rayleigh_mass: ",
+                "-0.5",
+            ),
+            (
+                "[solver]\nrayleigh_stiffness = inf\n",
+                2,
+                "solver.rayleigh_stiffness: ",
+                "inf",
+            ),
+            (
+                "[solver]\nnewton_max_iterations = 0\n",
+                2,
+                "solver.newton_max_iterations: ",
+                "at least 1",
+            ),
+            (
+                "[solver]\ncg_max_iterations = 0\n",
+                2,
+                "solver.cg_max_iterations: ",
+                "at least 1",
+            ),
+            (
+                "[solver]\nmax_step_cuts = 21\n",
+                2,
+                "solver.max_step_cuts: ",
+                "at most 20",
+            ),
+            ("[solver]\nframes = 0\n", 2, "solver.frames: ", "at least 1"),
+            (
+                "[material]\ndensity = -1\n",
+                2,
+                "material.density: ",
+                "got -1",
+            ),
+            (
+                "[material]\npoisson_ratio = 0.5\n",
+                2,
+                "material.poisson_ratio: ",
+                "incompressible",
+            ),
+            (
+                "[material]\nyoungs_modulus = 0\n",
+                2,
+                "material.youngs_modulus: ",
+                "Young",
+            ),
+            ("[material]\nmu = 1e4\n", 2, "material.mu: ", "lambda"),
+            (
+                "[material]\nmu = 1e4\nlambda = -1e4\n",
+                3,
+                "material.lambda: ",
+                "3λ + 2μ",
+            ),
+            (
+                "[material]\npoisson_ratio = 0.3\nlambda = 1\n",
+                3,
+                "material.lambda: ",
+                "not both",
+            ),
+            ("gravity = [0, nan, 0]\n", 1, "gravity: ", "NaN"),
+            (
+                "[[fixed]]\nregion = { vertices = [0] }\n\n[[fixed]]\nregion = { vertices = [1] }\nduration = -1\n",
+                6,
+                "[[fixed]] #2 duration: ",
+                "got -1",
+            ),
+            (
+                "[[fixed]]\nregion = { vertices = [0] }\nuntil = nan\n",
+                3,
+                "[[fixed]] #1 until: ",
+                "NaN",
+            ),
+            (
+                "[[fixed]]\nregion = { vertices = [0] }\nmotion = { translate = [0, 0, inf] }\n",
+                3,
+                "[[fixed]] #1 motion.translate: ",
+                "inf",
+            ),
+            (
+                "[[fixed]]\nregion = { plane = { point = [0,0,0],\n  normal = [0,0,0] } }\n",
+                3,
+                "[[fixed]] #1 region.plane.normal: ",
+                "non-zero",
+            ),
+            (
+                "[[fixed]]\nregion = { vertices = [] }\n",
+                2,
+                "[[fixed]] #1 region.vertices: ",
+                "empty",
+            ),
+            (
+                "[[load]]\nregion = { vertices = [0] }\ntraction = [0, 1, 0]\ntotal_force = [1, 0, 0]\n",
+                4,
+                "[[load]] #1 total_force: ",
+                "exactly one",
+            ),
+            (
+                "[[load]]\nregion = { vertices = [0] }\n",
+                1,
+                "[[load]] #1: ",
+                "exactly one",
+            ),
+            (
+                "[[load]]\nregion = { vertices = [0] }\npoint_force = [0, 1, 0]\nduration = -2\n",
+                4,
+                "[[load]] #1 duration: ",
+                "got -2",
+            ),
+            (
+                "[[volume]]\nregion = { box = { min = [0,0,0], max = [1,1,1] } }\ndensity = 0\n",
+                3,
+                "[[volume]] #1 density: ",
+                "positive",
+            ),
+            (
+                "[[volume]]\nregion = { vertices = [0, 1] }\n",
+                2,
+                "[[volume]] #1 region.vertices: ",
+                "needs tets",
+            ),
+            (
+                "[[volume]]\nregion = { physical = \"xmin\" }\npoisson_ratio = -1\n",
+                3,
+                "[[volume]] #1 poisson_ratio: ",
+                "(-1, 0.5)",
+            ),
+            (
+                "[initial]\nvelocity = [nan, 0, 0]\n",
+                2,
+                "initial.velocity: ",
+                "NaN",
+            ),
+            (
+                "[output]\nfield = \"colour\"\n",
+                2,
+                "output.field: ",
+                "unknown field",
+            ),
+            (
+                "[output]\n\nwidth = 8\n",
+                3,
+                "output.width: ",
+                "between 16 and 8192",
+            ),
+            (
+                "[output]\ngif_stride = 0\n",
+                2,
+                "output.gif_stride: ",
+                "at least 1",
+            ),
+            ("[output]\nazimuth = nan\n", 2, "output.azimuth: ", "finite"),
+            (
+                "[solver]\nframes = 1\n[solver.frobnicate]\nx = 1\n",
+                3,
+                "solver.frobnicate: ",
+                "unknown field",
+            ),
+            (
+                "[material]\nmodel = \"rubber\"\n",
+                2,
+                "material.model: ",
+                "unknown material model",
+            ),
+        ];
+        for &(rest, line, key, word) in cases {
+            let (l, message) = error(rest);
+            assert_eq!(l, line, "line of {key} in\n{rest}\n{message}");
+            assert!(message.starts_with(key), "{message}");
+            assert!(message.contains(word), "{word:?} missing in {message}");
+        }
+    }
+
+    #[test]
+    fn mesh_keys_are_named_at_their_line() {
+        let generator = |g: &str| format!("[solver]\ndt = 0.1\n[mesh]\ngenerator = {g}\n");
+        for (g, key, column) in [
+            (
+                "{ box = { min = [0,0,0], max = [1,0,1], cells = [1,1,1] } }",
+                "mesh.generator.box.max",
+                38,
+            ),
+            (
+                "{ box = { min = [0,0,0], max = [1,1,1], cells = [1,0,1] } }",
+                "mesh.generator.box.cells",
+                53,
+            ),
+        ] {
+            match Scene::parse(&generator(g), Path::new("s.toml"), Path::new(".")) {
+                Err(Error::Scene {
+                    line: 4,
+                    column: c,
+                    message,
+                    ..
+                }) => {
+                    assert!(message.starts_with(key), "{message}");
+                    assert_eq!(c, column, "{message}");
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+        let msg = Scene::parse("[solver]\ndt = 0.1\n", Path::new("s.toml"), Path::new("."))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.starts_with("s.toml:1:1: mesh.file: give a mesh file"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn the_first_problem_in_the_file_is_reported() {
+        let (line, message) = error("[solver]\nsubsteps = 0\n[material]\ndensity = -1\n");
+        assert_eq!((line, message.starts_with("solver.substeps")), (2, true));
+        let (line, message) = error("[material]\ndensity = -1\n[solver]\nsubsteps = 0\n");
+        assert_eq!((line, message.starts_with("material.density")), (2, true));
+    }
+
+    #[test]
+    fn every_sample_scene_is_valid() {
+        for dir in ["scenes", "scenes/bench"] {
+            for entry in std::fs::read_dir(dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.extension().is_some_and(|e| e == "toml") {
+                    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                }
+            }
+        }
+    }
+}
