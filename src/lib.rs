@@ -46,6 +46,7 @@
 //! - [`check`]: the derivative self-check (`tetsim check`).
 //! - [`diagnose`]: what went wrong, in words: inverted elements, run summary, warnings.
 //! - [`error`]: typed, located errors.
+//! - [`field`]: the fields pictures are coloured by (displacement, J, von Mises, Ψ).
 //! - [`render`]: headless pictures: software renderer → PNG and GIF, plots of `steps.csv`.
 //! - [`progress`]: the run display: progress bar and end-of-run summary.
 
@@ -63,6 +64,7 @@ pub mod diagnose;
 pub mod direct;
 pub mod elastic;
 pub mod error;
+pub mod field;
 pub mod integrator;
 pub mod io;
 pub mod manifest;

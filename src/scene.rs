@@ -582,7 +582,7 @@ impl Scene {
         }
         let o = &self.output;
         if let Some(Err(e)) =
-            (o.field != "none").then(|| o.field.parse::<crate::render::FieldKind>())
+            (o.field != "none").then(|| o.field.parse::<crate::field::FieldKind>())
         {
             return fail("output", "field", e.to_string());
         }
