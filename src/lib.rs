@@ -55,6 +55,7 @@
 
 pub mod amg;
 pub mod audit;
+#[cfg(feature = "cli")]
 pub mod bench;
 pub mod boundary;
 pub mod cg;
@@ -72,7 +73,9 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod output;
+#[cfg(feature = "cli")]
 pub mod progress;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod scene;
 pub mod sim;
