@@ -2,7 +2,7 @@
 //! say where time goes and how close the linear solve runs to the memory-bandwidth roof.
 //!
 //! Workload (fixed so figures compare across versions and against VegaFEM): beam
-//! [0,4]×[0,1]×[0,1] m of 4n×n×n Kuhn cubes, x = 0 fixed, gravity (0, −9.81, 0), ρ = 1000,
+//! `[0,4]×[0,1]×[0,1]` m of 4n×n×n Kuhn cubes, x = 0 fixed, gravity (0, −9.81, 0), ρ = 1000,
 //! Neo-Hookean E = 1e6 Pa, ν = 0.3, Rayleigh γ = 0.01, h = 1/30 s, Newton relative tolerance
 //! 1e-4. Bytes per CG iteration are a model of the traffic (operator data once per product plus
 //! the CG vector passes), documented at [`cg_vector_bytes_per_vertex`]; achieved GB/s divides it by

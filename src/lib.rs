@@ -17,24 +17,26 @@
 //! `F = U·diag(σ)·Vᵀ` (det U = det V = +1, an inversion carried by σ₃ < 0), extended below an
 //! inversion threshold so that energy, stress and tangent are finite for every F. The tangent
 //! ∂P/∂F splits in diagonal space into a 3×3 block and three 2×2 blocks whose negative
-//! eigenvalues are fixed per element by a [`material::Definiteness`] strategy: `teran` (clamped
-//! to zero, Teran et al. 2005; the default), `analytic` (the same with closed-form eigensystems,
-//! Smith et al. 2019), `abs` (absolute values) or `none` (the exact, possibly indefinite Hessian).
-//! Models ([`material::ModelKind`]): Neo-Hookean, corotated, Stable Neo-Hookean, St.
-//! Venant-Kirchhoff, compressible Mooney-Rivlin, and linear elasticity (on F, not rotation
-//! invariant); all are parametrised by the small-strain Lamé parameters (μ, λ).
+//! eigenvalues are handled per element by a [`material::Definiteness`] strategy: `adaptive` (the
+//! default: Newton solves with the exact tangent and falls back to `teran` for an iterate where
+//! that breaks down, after Longva et al. 2023), `teran` (clamped to zero, Teran et al. 2005),
+//! `analytic` (the same with closed-form eigensystems, Smith et al. 2019), `abs` (absolute
+//! values) or `none` (the exact, possibly indefinite Hessian).
+//! Models ([`material::ModelKind`]): Neo-Hookean (plain, or inside Irving et al. 2004's clamped
+//! stretches as `neo-hookean-clamped`), corotated, Stable Neo-Hookean, St. Venant-Kirchhoff,
+//! compressible Mooney-Rivlin, and linear elasticity (on F, not rotation invariant); all are
+//! parametrised by the small-strain Lamé parameters (μ, λ).
 //!
 //! ## Modules
+//! Always built:
 //! - [`math`]: rotation-variant SVD, symmetric eigensolver, PSD clamp.
-//! - [`material`]: Ψ, P, dP; the principal-stretch adaptor and definiteness strategies; the six
+//! - [`material`]: Ψ, P, dP; the principal-stretch adaptor and definiteness strategies; the
 //!   models.
 //! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.
 //! - [`cg`]: preconditioned conjugate gradient on any linear operator.
 //! - [`amg`]: smoothed-aggregation algebraic multigrid, a preconditioner for the assembled system.
-//! - `direct` (cargo feature `direct`): faer's sparse Cholesky of the assembled system, the
-//!   other preconditioner for it.
 //! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
 //! - [`audit`]: the energy audit of every step (steps.csv, run summary).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
@@ -42,23 +44,44 @@
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`manifest`]: `manifest.json`: version, input hashes, resolved parameters, output hashes.
-//! - [`sparse`]: assembled block-sparse matrices; [`bench`]: the `tetsim bench` workload.
+//! - [`sparse`]: assembled block-sparse matrices.
 //! - [`check`]: the derivative self-check (`tetsim check`).
 //! - [`diagnose`]: what went wrong, in words: inverted elements, run summary, warnings.
+//! - [`field`]: the fields pictures are coloured by (displacement, J, von Mises, Ψ).
 //! - [`error`]: typed, located errors.
-//! - [`render`]: headless pictures: software renderer → PNG and GIF, plots of `steps.csv`.
-//! - [`progress`]: the run display: progress bar and end-of-run summary.
+//!
+//! Behind cargo features (see below):
+//! - `direct` (feature `direct`): faer's sparse Cholesky of the assembled system, the other
+//!   preconditioner for it.
+//! - `render` (feature `render`): headless pictures: software renderer → PNG and GIF, plots of
+//!   `steps.csv`.
+//! - `progress` (feature `cli`): the run display: progress bar and end-of-run summary.
+//! - `bench` (feature `cli`): the `tetsim bench` workload.
+//!
+//! ## Features
+//! - `cli` and `render`, the defaults: the `tetsim` command (`cli` implies `render`) and the
+//!   pictures (`preview.png`, `animation.gif`, `steps_*.png`).
+//! - `--no-default-features` (`default-features = false` in a dependent's Cargo.toml): a lean
+//!   library for a Python extension or an MPI rank: physics, meshes, scene files and the VTU,
+//!   PVD, OBJ and CSV output, with none of the command-line or picture crates (clap, anyhow,
+//!   env_logger, indicatif, plotters, ab_glyph, png, gif). The library never draws pictures
+//!   itself: `[output] pictures` and `plots` are honoured by the `tetsim` command, so such a
+//!   build still writes every frame and `steps.csv`, and simply has no picture to draw.
+//! - `direct` (opt-in): the sparse Cholesky preconditioner (`[solver] preconditioner =
+//!   "cholesky"`); faer adds minutes to a cold build.
 
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
 pub mod audit;
+#[cfg(feature = "cli")]
 pub mod bench;
 pub mod boundary;
 pub mod check;
 pub mod diagnose;
 pub mod elastic;
 pub mod error;
+pub mod field;
 pub mod integrator;
 pub mod io;
 pub mod linear;
@@ -67,7 +90,9 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod output;
+#[cfg(feature = "cli")]
 pub mod progress;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod scene;
 pub mod sim;

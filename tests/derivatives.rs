@@ -350,71 +350,99 @@ fn check_stiffness_symmetric_and_projected_psd(model: &Model, seed: u64) {
     }
 }
 
+/// One module of derivative tests per model, stamped from a list that must name every
+/// [`ModelKind`]: the list also expands to an exhaustive `match` (so a new variant does not compile
+/// until it has a line here) and to a test that the list is exactly [`ModelKind::ALL`].
 macro_rules! material_tests {
-    ($name:ident, $kind:expr, $seed:expr) => {
-        mod $name {
-            use super::*;
-            fn model() -> Model {
-                Model::new($kind, lame())
-            }
-            #[test]
-            fn energy_to_stress_matches_finite_differences() {
-                check_psi_to_p(&model(), $seed);
-            }
-            #[test]
-            fn stress_to_differential_matches_finite_differences() {
-                check_p_to_dp(&model(), $seed + 10);
-            }
-            #[test]
-            fn tangent_is_consistent_and_symmetric() {
-                check_tangent_consistency(&model(), $seed + 20);
-            }
-            #[test]
-            fn projected_tangent_is_psd() {
-                check_projected_psd(&model(), $seed + 30);
-            }
-            #[test]
-            fn projected_equals_exact_near_rest() {
-                check_projected_equals_exact_near_rest(&model(), $seed + 40);
-            }
-            #[test]
-            fn finite_and_restoring_for_every_f() {
-                check_finite_everywhere(&model(), $seed + 50);
-            }
-            #[test]
-            fn equals_analytic_model_above_threshold() {
-                formulas::check_matches_analytic(&model(), $seed + 60);
-            }
-            #[test]
-            fn body_energy_to_forces_matches_finite_differences() {
-                check_body_energy_to_forces(&model(), $seed + 70);
-            }
-            #[test]
-            fn body_forces_to_stiffness_matches_finite_differences() {
-                check_body_forces_to_stiffness(&model(), $seed + 80);
-            }
-            #[test]
-            fn stiffness_symmetric_and_projected_psd() {
-                check_stiffness_symmetric_and_projected_psd(&model(), $seed + 90);
-            }
-            #[test]
-            fn uniaxial_stress_matches_analytic() {
-                uniaxial::check_uniaxial(&model());
-            }
-            #[test]
-            fn definiteness_strategies_agree_where_they_must() {
-                strategies::check_strategies(&model(), $seed + 100);
+    ($($name:ident: $kind:ident, $seed:expr;)+) => {
+        /// The derivative-test module of each model; exhaustive on purpose (no `_` arm).
+        fn derivative_tests_of(kind: ModelKind) -> &'static str {
+            match kind {
+                $(ModelKind::$kind => stringify!($name),)+
             }
         }
+
+        #[test]
+        fn every_model_has_derivative_tests() {
+            // The list names every variant (the match above), so these make ALL the same set.
+            let listed = [$(ModelKind::$kind),+];
+            for kind in listed {
+                assert!(ModelKind::ALL.contains(&kind), "ModelKind::ALL misses {kind}");
+            }
+            for kind in ModelKind::ALL {
+                assert!(listed.contains(&kind), "{kind} has no derivative tests");
+                assert!(!derivative_tests_of(kind).is_empty());
+            }
+        }
+
+        $(
+            mod $name {
+                use super::*;
+                fn model() -> Model {
+                    Model::new(ModelKind::$kind, lame())
+                }
+                #[test]
+                fn energy_to_stress_matches_finite_differences() {
+                    check_psi_to_p(&model(), $seed);
+                }
+                #[test]
+                fn stress_to_differential_matches_finite_differences() {
+                    check_p_to_dp(&model(), $seed + 10);
+                }
+                #[test]
+                fn tangent_is_consistent_and_symmetric() {
+                    check_tangent_consistency(&model(), $seed + 20);
+                }
+                #[test]
+                fn projected_tangent_is_psd() {
+                    check_projected_psd(&model(), $seed + 30);
+                }
+                #[test]
+                fn projected_equals_exact_near_rest() {
+                    check_projected_equals_exact_near_rest(&model(), $seed + 40);
+                }
+                #[test]
+                fn finite_and_restoring_for_every_f() {
+                    check_finite_everywhere(&model(), $seed + 50);
+                }
+                #[test]
+                fn equals_analytic_model_above_threshold() {
+                    formulas::check_matches_analytic(&model(), $seed + 60);
+                }
+                #[test]
+                fn body_energy_to_forces_matches_finite_differences() {
+                    check_body_energy_to_forces(&model(), $seed + 70);
+                }
+                #[test]
+                fn body_forces_to_stiffness_matches_finite_differences() {
+                    check_body_forces_to_stiffness(&model(), $seed + 80);
+                }
+                #[test]
+                fn stiffness_symmetric_and_projected_psd() {
+                    check_stiffness_symmetric_and_projected_psd(&model(), $seed + 90);
+                }
+                #[test]
+                fn uniaxial_stress_matches_analytic() {
+                    uniaxial::check_uniaxial(&model());
+                }
+                #[test]
+                fn definiteness_strategies_agree_where_they_must() {
+                    strategies::check_strategies(&model(), $seed + 100);
+                }
+            }
+        )+
     };
 }
 
-material_tests!(neo_hookean, ModelKind::NeoHookean, 100);
-material_tests!(corotated, ModelKind::Corotated, 200);
-material_tests!(stable_neo_hookean, ModelKind::StableNeoHookean, 300);
-material_tests!(st_venant_kirchhoff, ModelKind::StVenantKirchhoff, 400);
-material_tests!(mooney_rivlin, ModelKind::MooneyRivlin, 500);
-material_tests!(linear, ModelKind::Linear, 600);
+material_tests! {
+    neo_hookean: NeoHookean, 100;
+    neo_hookean_clamped: NeoHookeanClamped, 700;
+    corotated: Corotated, 200;
+    stable_neo_hookean: StableNeoHookean, 300;
+    st_venant_kirchhoff: StVenantKirchhoff, 400;
+    mooney_rivlin: MooneyRivlin, 500;
+    linear: Linear, 600;
+}
 
 /// The element kernel: tet energy W Ψ(Ds Bm) → tet_forces, on a single tet.
 #[test]

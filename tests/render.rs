@@ -796,6 +796,7 @@ fn decode_gif_frames(bytes: &[u8]) -> Vec<Image> {
 /// The run display as a person sees it: a progress bar on a terminal (plain lines when
 /// piped), then the summary. Watch it with
 /// `cargo test --test render -- --ignored --nocapture progress_display_demo`.
+#[cfg(feature = "cli")]
 #[test]
 #[ignore]
 fn progress_display_demo() {

@@ -713,35 +713,6 @@ fn cholesky_same_bits_on_one_and_two_threads() {
     assert_eq!((one.0, one.1), (two.0, two.1));
 }
 
-/// Counts heap allocations per thread, to show that applying the Cholesky allocates nothing.
-#[cfg(feature = "direct")]
-mod counting {
-    use std::alloc::{GlobalAlloc, Layout, System};
-    use std::cell::Cell;
-
-    pub struct Counting;
-
-    thread_local! {
-        pub static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-    }
-
-    // SAFETY: forwards to the system allocator; the counter is a const-initialised thread-local
-    // without a destructor, so touching it never allocates or fails.
-    unsafe impl GlobalAlloc for Counting {
-        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-            ALLOCATIONS.with(|c| c.set(c.get() + 1));
-            unsafe { System.alloc(layout) }
-        }
-        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-            unsafe { System.dealloc(ptr, layout) }
-        }
-    }
-}
-
-#[cfg(feature = "direct")]
-#[global_allocator]
-static ALLOCATOR: counting::Counting = counting::Counting;
-
 /// Every CG iteration applies the preconditioner: with the Cholesky that is two triangular solves
 /// in buffers made at the analysis, so it allocates nothing, and it solves the assembled system.
 #[cfg(feature = "direct")]
@@ -775,12 +746,12 @@ fn cholesky_apply_allocates_nothing_and_solves_the_system() {
         .collect();
     let mut z = vec![Vec3::zeros(); n];
     chol.apply(&b, &mut z); // first use may set up thread-local kernel scratch
-    let before = counting::ALLOCATIONS.with(|c| c.get());
+    let before = allocations::THREAD_COUNT.with(|c| c.get());
     for _ in 0..5 {
         chol.apply(&b, &mut z);
     }
-    let allocations = counting::ALLOCATIONS.with(|c| c.get()) - before;
-    assert_eq!(allocations, 0, "allocations in five applications");
+    let allocated = allocations::THREAD_COUNT.with(|c| c.get()) - before;
+    assert_eq!(allocated, 0, "allocations in five applications");
     let mut az = vec![Vec3::zeros(); n];
     a.multiply(&z, &mut az);
     let scale = b.iter().map(|v| v.norm()).fold(0.0, f64::max);
@@ -1465,7 +1436,8 @@ fn vertex_reordering_is_invisible_in_the_output() {
 }
 
 /// Counts heap allocations made on threads that opted in (the test's own thread and the workers
-/// of its private rayon pool), so that tests running beside it do not disturb the count.
+/// of its private rayon pool), so that tests running beside it do not disturb the count; and
+/// every thread's own allocations, for a test that runs on one thread.
 mod allocations {
     use std::alloc::{GlobalAlloc, Layout, System};
     use std::cell::Cell;
@@ -1477,10 +1449,13 @@ mod allocations {
 
     thread_local! {
         pub static COUNTED: Cell<bool> = const { Cell::new(false) };
+        /// Allocations made by this thread, counted always.
+        pub static THREAD_COUNT: Cell<usize> = const { Cell::new(0) };
     }
 
     fn note() {
         // `try_with`: thread-locals may be gone while a thread exits.
+        let _ = THREAD_COUNT.try_with(|c| c.set(c.get() + 1));
         if COUNTED.try_with(Cell::get).unwrap_or(false) {
             COUNT.fetch_add(1, Ordering::Relaxed);
         }

@@ -25,7 +25,6 @@
 mod animation;
 mod camera;
 mod colormap;
-mod field;
 mod floor;
 mod geometry;
 mod image;
@@ -34,9 +33,6 @@ mod raster;
 mod run;
 mod text;
 
-use std::fmt;
-use std::str::FromStr;
-
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
@@ -44,106 +40,15 @@ pub use crate::elastic::{VON_MISES_MIN_J, von_mises};
 pub use animation::{encode_gif, write_gif};
 pub use camera::{Bounds, Camera, fit_camera};
 pub use colormap::viridis;
-pub use field::{displacement_magnitudes, field_range, field_values};
+// The fields live outside the renderer (scene validation needs them without pictures);
+// re-exported so `render::FieldKind` keeps working.
+pub use crate::field::{
+    FieldKind, FieldLocation, displacement_magnitudes, field_range, field_values,
+};
 pub use geometry::RenderMesh;
 pub use image::Image;
 pub use plot::plot_steps;
 pub use run::{RunFrame, RunPictureParams, gif_delay_cs, render_run};
-
-/// What colours the surface.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum FieldKind {
-    /// |x − X|, the displacement magnitude per vertex (m), interpolated smoothly.
-    Displacement,
-    /// J = det F per tet (dimensionless): < 1 compressed, > 1 stretched, ≤ 0 inverted.
-    J,
-    /// Von Mises equivalent of the Cauchy stress per tet (Pa).
-    VonMises,
-    /// Strain energy density Ψ(F) per tet (J/m³).
-    EnergyDensity,
-}
-
-/// Where a field's values live.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FieldLocation {
-    /// One value per vertex; smoothly interpolated across triangles.
-    Vertex,
-    /// One value per tet; every boundary face shows its tet's value (flat).
-    Cell,
-}
-
-impl FieldKind {
-    /// All kinds, in the order the command line lists them.
-    pub const ALL: [FieldKind; 4] = [
-        FieldKind::Displacement,
-        FieldKind::J,
-        FieldKind::VonMises,
-        FieldKind::EnergyDensity,
-    ];
-
-    /// Per vertex or per tet.
-    pub fn location(self) -> FieldLocation {
-        match self {
-            FieldKind::Displacement => FieldLocation::Vertex,
-            _ => FieldLocation::Cell,
-        }
-    }
-
-    /// The colour bar's label (without the unit).
-    pub fn label(self) -> &'static str {
-        match self {
-            FieldKind::Displacement => "displacement |u|",
-            FieldKind::J => "volume ratio J",
-            FieldKind::VonMises => "von Mises stress",
-            FieldKind::EnergyDensity => "energy density Ψ",
-        }
-    }
-
-    /// The SI unit of the values ("" for dimensionless).
-    pub fn unit(self) -> &'static str {
-        match self {
-            FieldKind::Displacement => "m",
-            FieldKind::J => "",
-            FieldKind::VonMises => "Pa",
-            FieldKind::EnergyDensity => "J/m³",
-        }
-    }
-
-    /// The name used on the command line and in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            FieldKind::Displacement => "displacement",
-            FieldKind::J => "J",
-            FieldKind::VonMises => "von-mises",
-            FieldKind::EnergyDensity => "energy-density",
-        }
-    }
-}
-
-impl fmt::Display for FieldKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for FieldKind {
-    type Err = Error;
-
-    /// Parses [`FieldKind::name`], case-insensitively, with `_` accepted for `-`.
-    fn from_str(s: &str) -> Result<Self> {
-        let wanted = s.trim().to_ascii_lowercase().replace('_', "-");
-        FieldKind::ALL
-            .into_iter()
-            .find(|k| k.name().to_ascii_lowercase() == wanted)
-            .ok_or_else(|| {
-                let names: Vec<&str> = FieldKind::ALL.iter().map(|k| k.name()).collect();
-                Error::parameter(
-                    "render.field",
-                    format!("unknown field {s:?}; expected one of {}", names.join(", ")),
-                )
-            })
-    }
-}
 
 /// How triangles are lit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -400,18 +305,6 @@ fn sanitize_range((lo, hi): (f64, f64)) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn field_names_round_trip() {
-        for kind in FieldKind::ALL {
-            assert_eq!(kind.name().parse::<FieldKind>().unwrap(), kind);
-        }
-        assert_eq!(
-            "Von_Mises".parse::<FieldKind>().unwrap(),
-            FieldKind::VonMises
-        );
-        assert!("stress".parse::<FieldKind>().is_err());
-    }
 
     #[test]
     fn degenerate_ranges_get_width() {

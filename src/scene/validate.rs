@@ -346,7 +346,7 @@ impl Validator<'_> {
     fn output(&mut self, o: &OutputSpec) {
         let at = |k: &'static str| key!["output", k];
         if o.field != "none"
-            && let Err(e) = o.field.parse::<crate::render::FieldKind>()
+            && let Err(e) = o.field.parse::<crate::field::FieldKind>()
         {
             let message = match e {
                 Error::Parameter { message, .. } => message,
