@@ -9,14 +9,11 @@ fn main() -> Result<(), tetsim::Error> {
     scene.solver.frames = 10;
     let mut sim = Simulation::from_scene(&scene)?;
     let mut recorder = Recorder::create("out/example".as_ref(), &sim.body, true)?;
-    recorder.write_frame(&sim, None)?;
-    while !sim.is_finished() {
-        let stats = sim.step()?; // one frame: Newton iterations, CG iterations, residual, min J …
-        recorder.write_frame(&sim, Some(&stats))?;
+    // Frame 0, then every frame: Newton iterations, CG iterations, residual, min J …
+    sim.run_with(&mut recorder, |_, stats| {
         println!(
             "frame {}: {} Newton, {} CG",
             stats.frame, stats.newton_iterations, stats.cg_iterations
-        );
-    }
-    Ok(())
+        )
+    })
 }

@@ -18,8 +18,9 @@
 //! inversion threshold so that energy, stress and tangent are finite for every F. The tangent
 //! ∂P/∂F splits in diagonal space into a 3×3 block and three 2×2 blocks whose negative
 //! eigenvalues are handled per element by a [`material::Definiteness`] strategy: `adaptive` (the
-//! default: Newton solves with the exact tangent and falls back to `teran` for an iterate where
-//! that breaks down, after Longva et al. 2023), `teran` (clamped to zero, Teran et al. 2005),
+//! default: Newton solves with Teran's projected tangent and switches to the exact one once it
+//! stalls while no tet is inverted, back to the projection where that gives no descent; a
+//! Newton policy, [`integrator::policy`]), `teran` (clamped to zero, Teran et al. 2005),
 //! `analytic` (the same with closed-form eigensystems, Smith et al. 2019), `abs` (absolute
 //! values) or `none` (the exact, possibly indefinite Hessian).
 //! Models ([`material::ModelKind`]): Neo-Hookean (plain, or inside Irving et al. 2004's clamped
@@ -35,24 +36,26 @@
 //! - [`mesh`]: tet meshes, validation, boundary faces, the box generator.
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.
-//! - [`cg`]: preconditioned conjugate gradient on any linear operator.
-//! - [`amg`]: smoothed-aggregation algebraic multigrid, a preconditioner for the assembled system.
-//! - [`integrator`]: Newton on backward Euler or quasistatic equilibrium (SPEC §4).
+//! - [`linear`]: Newton's linear systems, knowing nothing of FEM: the [`linear::LinearSolver`]
+//!   strategies (matrix-free, multigrid, Cholesky) on any [`linear::System`], and their parts
+//!   ([`linear::cg`], [`linear::sparse`] block matrices, [`linear::amg`]).
+//! - [`integrator`]: one step as Newton on the incremental potential (SPEC §4): settings, the
+//!   potential's [`integrator::Term`]s (inertia, elasticity, loads; contact joins them), Newton,
+//!   the line search, the tangent policy, statistics.
 //! - [`audit`]: the energy audit of every step (steps.csv, run summary).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`manifest`]: `manifest.json`: version, input hashes, resolved parameters, output hashes.
-//! - [`sparse`]: assembled block-sparse matrices.
 //! - [`check`]: the derivative self-check (`tetsim check`).
 //! - [`diagnose`]: what went wrong, in words: inverted elements, run summary, warnings.
 //! - [`field`]: the fields pictures are coloured by (displacement, J, von Mises, Ψ).
 //! - [`error`]: typed, located errors.
 //!
 //! Behind cargo features (see below):
-//! - `direct` (feature `direct`): faer's sparse Cholesky of the assembled system, the other
-//!   preconditioner for it.
+//! - `linear::direct` and `linear::cholesky` (feature `direct`): faer's sparse Cholesky of the
+//!   assembled system, the other preconditioner for it.
 //! - `render` (feature `render`): headless pictures: software renderer → PNG and GIF, plots of
 //!   `steps.csv`.
 //! - `progress` (feature `cli`): the run display: progress bar and end-of-run summary.

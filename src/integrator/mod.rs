@@ -32,7 +32,7 @@ use crate::math::Vec3;
 pub mod line_search;
 pub mod newton;
 pub mod params;
-mod policy;
+pub mod policy;
 pub mod problem;
 pub mod stats;
 pub mod terms;

@@ -56,7 +56,7 @@ pub struct SolverParams {
     pub definiteness: Definiteness,
     /// Preconditioner. Default AMG on the assembled system: on the default cantilever (3,000
     /// tets, 60 frames) 1,055 CG iterations in all against Jacobi's 8,725 and 1.4 s against 2.7 s
-    /// of CPU; 7–10× faster per frame than Jacobi at 41,472 and 192,000 tets (see the README).
+    /// of CPU; 7–10× faster per frame than Jacobi at 41,472 and 192,000 tets (see docs/user-guide.md).
     /// Among the matrix-free ones Jacobi beats block Jacobi (122 against 129 CG iterations per
     /// Newton iteration on the default beam, 272 against 303 at 41,472 tets). The sparse Cholesky
     /// (feature `direct`, factor kept) ran the bench beam in 0.054 s/frame against AMG's 0.085
@@ -72,7 +72,7 @@ pub struct SolverParams {
     /// With the AMG preconditioner, CG multiplies with the upper triangle of A stored in f32
     /// (f64 vectors and sums) instead of the full f64 matrix: a third of the bytes per product.
     /// Newton and CG iteration counts are unchanged on the issue-8 beams. Default false (see
-    /// the README's speed section for the measurement).
+    /// the user guide's speed section for the measurement).
     pub f32_matrix: bool,
     /// With the Cholesky preconditioner: keep the factor across Newton iterations and frames and
     /// refactor when CG needs more than `CHOLESKY_REFACTOR_RATE` (see `linear::cholesky`) iterations per decade (or the

@@ -16,15 +16,16 @@ use crate::material::Definiteness;
 /// in 19 Newton iterations instead of failing after 243; 0.1 and 0.3 used the exact tangent on
 /// the squash scenes too, where it took up to 46 % more Newton iterations (compression makes the
 /// exact Hessian a poor model there).
-const ADAPTIVE_STALL_RATIO: f64 = 0.6;
+pub const ADAPTIVE_STALL_RATIO: f64 = 0.6;
 
 /// Newton's choice of tangent at each iterate.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct TangentPolicy {
+pub struct TangentPolicy {
     adaptive: bool,
 }
 
 impl TangentPolicy {
+    /// The policy of a definiteness strategy.
     pub fn new(definiteness: Definiteness) -> Self {
         TangentPolicy {
             adaptive: definiteness == Definiteness::Adaptive,
