@@ -555,8 +555,7 @@ impl ElasticBody {
         a: &mut BlockCsr,
         work: &mut AssemblyWork,
     ) {
-        a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
-        self.add_stiffness(lin, k_scale, a, work);
+        self.write_stiffness(lin, k_scale, a, work, true);
         let diagonal: Vec<f64> = self.mass.iter().map(|m| m_scale * m).collect();
         a.add_diagonal(&diagonal);
     }
@@ -571,6 +570,20 @@ impl ElasticBody {
         scale: f64,
         a: &mut BlockCsr,
         work: &mut AssemblyWork,
+    ) {
+        self.write_stiffness(lin, scale, a, work, false);
+    }
+
+    /// `a = scale·K` (`overwrite`: every block of `a` is set, zero where K has none) or
+    /// `a += scale·K`. Overwriting zeroes each row in the pass that fills it, which saves a
+    /// separate pass over the whole matrix.
+    pub fn write_stiffness(
+        &self,
+        lin: &Linearization,
+        scale: f64,
+        a: &mut BlockCsr,
+        work: &mut AssemblyWork,
+        overwrite: bool,
     ) {
         assert_eq!(a.rows(), self.vertex_count());
         let tets = &self.mesh.tets;
@@ -599,6 +612,9 @@ impl ElasticBody {
             });
         let (inc, local, elements) = (&self.incidence, &work.local, &work.elements);
         a.for_each_row_mut(|i, _cols, row| {
+            if overwrite {
+                row.iter_mut().for_each(|b| *b = Mat3::zeros());
+            }
             for &slot in &inc.slots[inc.offsets[i] as usize..inc.offsets[i + 1] as usize] {
                 let (t, corner) = (slot as usize / 4, slot as usize % 4);
                 for b in 0..4 {

@@ -268,12 +268,11 @@ impl System for Problem<'_, '_> {
     }
 
     fn assemble(&mut self, a: &mut BlockCsr) {
+        // Elasticity lays the matrix down (its pass over each row zeroes the row first), the
+        // other block terms add to it, the lumped diagonal comes last.
         let ctx = self.ctx;
-        a.values
-            .par_iter_mut()
-            .with_min_len(CHUNK)
-            .for_each(|b| *b = Mat3::zeros());
-        for term in self.potential.terms_mut() {
+        self.potential.elasticity.write_matrix(ctx, a);
+        for term in self.potential.extra.iter_mut() {
             if term.hessian_shape(ctx) == HessianShape::Blocks {
                 term.add_to_matrix(ctx, a);
             }

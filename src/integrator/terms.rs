@@ -196,6 +196,12 @@ impl Elasticity {
         &self.pattern
     }
 
+    /// `a = (1 + γ/h)·K`: every block of `a` set (see [`ElasticBody::write_stiffness`]).
+    pub fn write_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
+        ctx.body
+            .write_stiffness(&self.lin, Self::scale(ctx), a, &mut self.work, true);
+    }
+
     /// The scale of K in the Newton matrix: 1 + γ/h (dynamic) or 1.
     fn scale(ctx: &StepContext<'_>) -> f64 {
         match ctx.kind {
