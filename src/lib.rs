@@ -58,6 +58,7 @@ pub mod bench;
 pub mod boundary;
 pub mod cg;
 pub mod check;
+pub mod contact;
 pub mod diagnose;
 #[cfg(feature = "direct")]
 pub mod direct;
