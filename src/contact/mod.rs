@@ -31,6 +31,7 @@
 //! *squared* throughout, as in the IPC paper (d̂ is a squared distance too), except where a name
 //! says `gap` (an unsquared, possibly signed, distance).
 
+pub mod barrier;
 pub mod distance;
 
 #[cfg(test)]
