@@ -32,6 +32,7 @@
 //! says `gap` (an unsquared, possibly signed, distance).
 
 pub mod barrier;
+pub mod broad;
 pub mod ccd;
 pub mod distance;
 
