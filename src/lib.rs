@@ -32,6 +32,8 @@
 //! - [`elastic`]: the elastic body: energy, forces, linearization and stiffness product.
 //! - [`boundary`]: regions, Dirichlet constraints and motions, loads, ramps.
 //! - [`cg`]: preconditioned conjugate gradient on any linear operator.
+//! - [`contact`]: Incremental Potential Contact pieces: distances, barrier, CCD, broad phase,
+//!   contact surfaces, rigid obstacles, friction (not yet wired into the integrator).
 //! - [`amg`]: smoothed-aggregation algebraic multigrid, a preconditioner for the assembled system.
 //! - `direct` (cargo feature `direct`): faer's sparse Cholesky of the assembled system, the
 //!   other preconditioner for it.

@@ -35,6 +35,7 @@ pub mod barrier;
 pub mod broad;
 pub mod ccd;
 pub mod distance;
+pub mod friction;
 pub mod obstacle;
 pub mod surface;
 
