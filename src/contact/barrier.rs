@@ -2,7 +2,9 @@
 //!
 //! With d a squared distance and d̂ the (squared) activation distance, Li et al. 2020 eq. (6):
 //!
-//!     b(d) = −(d − d̂)² ln(d / d̂)   for 0 < d < d̂,   0 for d ≥ d̂,
+//! ```text
+//! b(d) = −(d − d̂)² ln(d / d̂)   for 0 < d < d̂,   0 for d ≥ d̂,
+//! ```
 //!
 //! C² at d = d̂ (b, b′ and b″ all vanish there) and → +∞ as d → 0. A pair's contact energy is
 //! κ m(x) b(d(x)), with m the mollifier (1 except for nearly parallel edge–edge pairs) and κ
@@ -48,7 +50,9 @@ pub fn barrier_second_derivative(d: f64, dhat: f64) -> f64 {
 
 /// The barrier of a distance function by the chain rule: with d = d(x),
 ///
-///     ∇b = b′(d) ∇d,   ∇²b = b″(d) ∇d ∇dᵀ + b′(d) ∇²d.
+/// ```text
+/// ∇b = b′(d) ∇d,   ∇²b = b″(d) ∇d ∇dᵀ + b′(d) ∇²d.
+/// ```
 ///
 /// Zero (value, gradient and Hessian) when d ≥ d̂.
 pub fn barrier_derivatives<const N: usize>(distance: &Derivatives<N>, dhat: f64) -> Derivatives<N> {
@@ -97,9 +101,11 @@ pub fn edge_edge_mollifier_threshold(a0: &Vec3, a1: &Vec3, b0: &Vec3, b1: &Vec3)
 
 /// c(x) = ‖ea × eb‖² with its gradient and Hessian over [a₀, a₁, b₀, b₁]. With w = ea × eb:
 ///
-///     ∂c/∂ea = 2 eb × w,   ∂c/∂eb = 2 w × ea,
-///     ∂²c/∂ea² = 2(‖eb‖² I − eb ebᵀ),   ∂²c/∂eb² = 2(‖ea‖² I − ea eaᵀ),
-///     ∂²c/∂ea∂eb = 2(ea ebᵀ − (ea·eb) I − [w]ₓ),
+/// ```text
+/// ∂c/∂ea = 2 eb × w,   ∂c/∂eb = 2 w × ea,
+/// ∂²c/∂ea² = 2(‖eb‖² I − eb ebᵀ),   ∂²c/∂eb² = 2(‖ea‖² I − ea eaᵀ),
+/// ∂²c/∂ea∂eb = 2(ea ebᵀ − (ea·eb) I − [w]ₓ),
+/// ```
 ///
 /// then mapped to the vertices by ea = a₁ − a₀, eb = b₁ − b₀.
 pub fn edge_edge_cross_squarednorm_derivatives(
@@ -202,7 +208,9 @@ pub fn edge_edge_mollified_barrier(x: &[Vec3; 4], dhat: f64, eps_x: f64) -> Deri
 
 /// The smallest barrier stiffness IPC allows (supplement §3):
 ///
-///     d₀ = (1e-8 · L)²  (or d̂/2 if that is not below d̂),   κ_min = s · m̄ / (4 d₀ b″(d₀)),
+/// ```text
+/// d₀ = (1e-8 · L)²  (or d̂/2 if that is not below d̂),   κ_min = s · m̄ / (4 d₀ b″(d₀)),
+/// ```
 ///
 /// with L the bounding-box diagonal (m), m̄ the average vertex mass (kg) and s = 1e11
 /// (`scale`): the stiffness at which the barrier's curvature at a tiny gap is comparable to
@@ -217,7 +225,9 @@ pub fn min_barrier_stiffness(dhat: f64, bbox_diagonal: f64, average_mass: f64, s
 
 /// IPC's initial barrier stiffness: the κ that best balances the contact and the other forces,
 ///
-///     κ = −(∇B·∇E) / ‖∇B‖²,   clamped to [κ_min, κ_max = 100 κ_min],
+/// ```text
+/// κ = −(∇B·∇E) / ‖∇B‖²,   clamped to [κ_min, κ_max = 100 κ_min],
+/// ```
 ///
 /// with ∇E the gradient of the rest of the incremental potential and ∇B = Σ ∇(m b) the
 /// unscaled barrier gradient at the start of the step (κ_min when ∇B = 0).
@@ -243,7 +253,9 @@ pub fn initial_barrier_stiffness(
 /// IPC's adaptive stiffness update, once per Newton iteration: with ε_d = (1e-9 · L)² (L the
 /// bounding-box diagonal; distances squared),
 ///
-///     κ ← min(κ_max, 2κ)   if d_prev < ε_d and d_min < ε_d and d_min < d_prev, else κ,
+/// ```text
+/// κ ← min(κ_max, 2κ)   if d_prev < ε_d and d_min < ε_d and d_min < d_prev, else κ,
+/// ```
 ///
 /// i.e. double κ when the smallest gap is tiny and still closing.
 pub fn update_barrier_stiffness(

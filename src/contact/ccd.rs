@@ -9,7 +9,9 @@
 //! Incremental Potential Contact", Alg. 1). Subtract the mean displacement (the distance is
 //! translation invariant), and bound the relative speed of any two points of the primitives by
 //!
-//!     l_p = maxᵢ∈A ‖pᵢ‖ + maxⱼ∈B ‖pⱼ‖.
+//! ```text
+//! l_p = maxᵢ∈A ‖pᵢ‖ + maxⱼ∈B ‖pⱼ‖.
+//! ```
 //!
 //! Then along the trajectory the gap g(t) = d(t) − ξ cannot shrink faster than l_p, so a step
 //! Δt = c·g/l_p (c = 0.9, the conservative rescaling) is always safe. ACCD advances by such steps

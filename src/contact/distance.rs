@@ -3,7 +3,9 @@
 //!
 //! Every distance here is a minimum of a quadratic over the primitives' parameters:
 //!
-//!     d(x) = min_β ‖r(x, β)‖²,   r = Σₖ cₖ(β) xₖ,   cₖ affine in β ∈ ℝᵐ (m ≤ 2),
+//! ```text
+//! d(x) = min_β ‖r(x, β)‖²,   r = Σₖ cₖ(β) xₖ,   cₖ affine in β ∈ ℝᵐ (m ≤ 2),
+//! ```
 //!
 //! e.g. point–triangle interior: r = p − (t₀ + β₁(t₁ − t₀) + β₂(t₂ − t₀)), m = 2. The
 //! classification ([`point_triangle_distance_type`], [`edge_edge_distance_type`],
@@ -12,9 +14,11 @@
 //! distance is then the unconstrained minimum of that sub-case (point–point, point–line,
 //! point–plane, line–line), which is smooth, and is differentiated by the envelope theorem:
 //!
-//!     ∂d/∂xₖ = 2 cₖ r,
-//!     ∂²d/∂x² = f_xx − f_xβ f_ββ⁻¹ f_βx,   f = ‖r‖²,
-//!     (f_xx)ₖₗ = 2 cₖ cₗ I₃,  (f_xβ)ₖⱼ = 2 (aₖⱼ r + cₖ tⱼ),  f_ββ = 2 TᵀT,
+//! ```text
+//! ∂d/∂xₖ = 2 cₖ r,
+//! ∂²d/∂x² = f_xx − f_xβ f_ββ⁻¹ f_βx,   f = ‖r‖²,
+//! (f_xx)ₖₗ = 2 cₖ cₗ I₃,  (f_xβ)ₖⱼ = 2 (aₖⱼ r + cₖ tⱼ),  f_ββ = 2 TᵀT,
+//! ```
 //!
 //! with aₖⱼ = ∂cₖ/∂βⱼ (constants) and T = [t₁ … tₘ], tⱼ = ∂r/∂βⱼ = Σₖ aₖⱼ xₖ. This is the
 //! same per-case Hessian as ipc-toolkit's `point_line`, `point_plane`, `line_line` functions,
@@ -428,8 +432,10 @@ pub fn sphere_triangle_gap(center: &Vec3, radius: f64, t0: &Vec3, t1: &Vec3, t2:
 /// The squared gap s = g² of [`sphere_triangle_gap`] (what the barrier takes) over the
 /// triangle's 9 dofs (the sphere is rigid: its center is a parameter, not a dof):
 ///
-///     ∇g = ∇D / (2√D),  ∇²g = ∇²D / (2√D) − ∇D∇Dᵀ / (4 D^{3/2}),
-///     ∇s = 2 g ∇g,      ∇²s = 2 ∇g∇gᵀ + 2 g ∇²g.
+/// ```text
+/// ∇g = ∇D / (2√D),  ∇²g = ∇²D / (2√D) − ∇D∇Dᵀ / (4 D^{3/2}),
+/// ∇s = 2 g ∇g,      ∇²s = 2 ∇g∇gᵀ + 2 g ∇²g.
+/// ```
 ///
 /// Meaningful for g > 0 (the barrier is only evaluated there). When the center lies on the
 /// triangle (D = 0) the gradient and Hessian are returned as zero.

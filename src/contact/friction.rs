@@ -9,18 +9,24 @@
 //!
 //! The relative tangential displacement over the step is then linear in the dofs:
 //!
-//!     u = Tᵀ Σₖ cₖ Δxₖ = Γ Δx,   Γ = [c₀Tᵀ c₁Tᵀ …] (2 × N),   Δx = x − xᵗ,
+//! ```text
+//! u = Tᵀ Σₖ cₖ Δxₖ = Γ Δx,   Γ = [c₀Tᵀ c₁Tᵀ …] (2 × N),   Δx = x − xᵗ,
+//! ```
 //!
 //! and friction is the potential D(x) = μ λ f₀(‖u‖) with the C¹ smoothing (ε = ε_v h, metres:
 //! the sliding speed ε_v below which friction is treated as static, times the time step)
 //!
-//!     f₀(y) = −y³/(3ε²) + y²/ε + ε/3,   f₁(y) = f₀′(y) = −y²/ε² + 2y/ε   for y < ε,
-//!     f₀(y) = y,                          f₁(y) = 1                        for y ≥ ε,
+//! ```text
+//! f₀(y) = −y³/(3ε²) + y²/ε + ε/3,   f₁(y) = f₀′(y) = −y²/ε² + 2y/ε   for y < ε,
+//! f₀(y) = y,                          f₁(y) = 1                        for y ≥ ε,
+//! ```
 //!
 //! so the force has magnitude μλ f₁(‖u‖) → μλ (Coulomb sliding) for ‖u‖ ≥ ε. Derivatives:
 //!
-//!     ∇D = μλ Γᵀ (f₁(y)/y) u,
-//!     ∇²D = μλ Γᵀ [ (f₁/y) I + ((f₁/y)′ / y) u uᵀ ] Γ,   y = ‖u‖,
+//! ```text
+//! ∇D = μλ Γᵀ (f₁(y)/y) u,
+//! ∇²D = μλ Γᵀ [ (f₁/y) I + ((f₁/y)′ / y) u uᵀ ] Γ,   y = ‖u‖,
+//! ```
 //!
 //! where (f₁/y)′ = −1/ε² below ε and −1/y² above. The bracket has eigenvalues f₁/y > 0 (across
 //! u) and f₁′(y) = 2(ε − y)/ε² ≥ 0 or 0 (along u), so this exact Hessian is already positive

@@ -4,7 +4,9 @@
 //! Contact is an energy. For every close pair of surface primitives k (point–triangle,
 //! edge–edge, and point/edge against rigid obstacles) with squared distance dₖ(x),
 //!
-//!     B(x) = κ Σₖ mₖ(x) b(dₖ(x)),   b(d) = −(d − d̂)² ln(d / d̂) for 0 < d < d̂, 0 beyond,
+//! ```text
+//! B(x) = κ Σₖ mₖ(x) b(dₖ(x)),   b(d) = −(d − d̂)² ln(d / d̂) for 0 < d < d̂, 0 beyond,
+//! ```
 //!
 //! where d̂ is the activation distance squared, κ the barrier stiffness and mₖ the edge–edge
 //! mollifier (1 for other pairs). Newton adds B to the incremental potential; the line search is
