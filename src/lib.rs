@@ -42,6 +42,8 @@
 //! - [`integrator`]: one step as Newton on the incremental potential (SPEC §4): settings, the
 //!   potential's [`integrator::Term`]s (inertia, elasticity, loads; contact joins them), Newton,
 //!   the line search, the tangent policy, statistics.
+//! - [`contact`]: Incremental Potential Contact: distances, barrier, CCD, broad phase, contact
+//!   surfaces, rigid obstacles, friction, and the contact term of the incremental potential.
 //! - [`audit`]: the energy audit of every step (steps.csv, run summary).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
@@ -81,6 +83,7 @@ pub mod audit;
 pub mod bench;
 pub mod boundary;
 pub mod check;
+pub mod contact;
 pub mod diagnose;
 pub mod elastic;
 pub mod error;

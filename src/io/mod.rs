@@ -18,6 +18,7 @@
 pub mod gmsh;
 pub mod medit;
 pub mod obj;
+pub mod stl;
 pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;
