@@ -60,6 +60,8 @@ pub struct Simulation {
     /// between frames must not show up as energy created by the step.
     ledger_x: Vec<Vec3>,
     renumbering: Option<Renumbering>,
+    contact: Option<crate::contact::ContactSetup>,
+    contact_forces: Vec<Vec3>,
 }
 
 impl Simulation {
@@ -123,6 +125,8 @@ impl Simulation {
             params,
             state,
             renumbering: None,
+            contact: None,
+            contact_forces: Vec::new(),
         })
     }
 
@@ -131,6 +135,41 @@ impl Simulation {
     pub fn with_renumbering(mut self, renumbering: Option<Renumbering>) -> Self {
         self.renumbering = renumbering;
         self
+    }
+
+    /// Turn contact on: rigid obstacles and the `[contact]` settings (SPEC §11). Refused when the
+    /// initial state passes through an obstacle (the message names it and a vertex).
+    pub fn with_contact(mut self, setup: crate::contact::ContactSetup) -> Result<Self> {
+        self.contact_forces = vec![Vec3::zeros(); self.body.vertex_count()];
+        self.contact = Some(setup);
+        Ok(self)
+    }
+
+    /// The contact setup, when contact is on.
+    pub fn contact_setup(&self) -> Option<&crate::contact::ContactSetup> {
+        self.contact.as_ref()
+    }
+
+    /// Contact forces on the vertices at the end of the last frame, N (empty without contact).
+    pub fn contact_forces(&self) -> &[Vec3] {
+        &self.contact_forces
+    }
+
+    /// The ramp factor s ∈ [0, 1] of a motion with `duration` (None: the whole run) at the
+    /// current time (quasistatic: the load factor).
+    pub fn motion_ramp(&self, duration: Option<f64>) -> f64 {
+        self.clock_at(self.state.t).ramp(duration)
+    }
+
+    /// The boundary clock at time (or load factor) t.
+    fn clock_at(&self, t: f64) -> Clock {
+        match self.params.integrator {
+            Integrator::BackwardEuler => Clock::Time {
+                time: t,
+                run_duration: self.params.dt * self.params.frames as f64,
+            },
+            Integrator::Quasistatic => Clock::LoadFactor(t),
+        }
     }
 
     /// How the body's mesh renumbers the input mesh (None: it is the input's numbering).

@@ -94,6 +94,15 @@ pub struct StepStats {
     pub clamped_tets: usize,
     /// Why the frame did not converge, in words.
     pub failure: Option<String>,
+    /// Active contact pairs at the end of the frame (0 without contact).
+    pub contacts: usize,
+    /// The smallest gap between a body and anything it can touch at the end of the frame, m
+    /// (None without contact).
+    pub min_distance: Option<f64>,
+    /// Barrier energy at the end of the frame, J.
+    pub contact_energy: f64,
+    /// Energy friction dissipated over the frame, J.
+    pub friction_dissipation: f64,
     /// The frame's energy audit (see [`crate::audit`]).
     pub energy: crate::audit::EnergyAudit,
     /// Time by phase over the frame (not written to steps.csv: it is not deterministic).
