@@ -140,7 +140,16 @@ impl Simulation {
     /// Turn contact on: rigid obstacles and the `[contact]` settings (SPEC §11). Refused when the
     /// initial state passes through an obstacle (the message names it and a vertex).
     pub fn with_contact(mut self, setup: crate::contact::ContactSetup) -> Result<Self> {
+        let term = crate::contact::term::ContactTerm::new(
+            setup.clone(),
+            &self.body.mesh,
+            self.body.masses(),
+        );
+        if let Some(message) = term.intersection(&self.state.x) {
+            return Err(Error::parameter("obstacle", message));
+        }
         self.contact_forces = vec![Vec3::zeros(); self.body.vertex_count()];
+        self.newton.potential_mut().contact = Some(term);
         self.contact = Some(setup);
         Ok(self)
     }
@@ -374,6 +383,23 @@ impl Simulation {
                 .prescribe(&clock, &self.initial, &mut self.state.x);
             self.boundary
                 .external_forces(&clock, self.body.masses(), &mut self.f_ext);
+            if let Some(contact) = &mut self.newton.potential_mut().contact {
+                // Obstacles where the step ends; the guess no further than CCD finds free.
+                contact.begin_step(|duration| clock.ramp(duration));
+                let dx: Vec<Vec3> = self
+                    .state
+                    .x
+                    .iter()
+                    .zip(&self.xn)
+                    .map(|(x, xn)| x - xn)
+                    .collect();
+                let t = contact.max_step(&self.xn, &dx);
+                if t < 1.0 {
+                    for ((x, xn), dx) in self.state.x.iter_mut().zip(&self.xn).zip(&dx) {
+                        *x = xn + t * dx;
+                    }
+                }
+            }
             let kind = if kind_is_dynamic {
                 StepKind::Dynamic {
                     xn: &self.xn,
@@ -394,6 +420,12 @@ impl Simulation {
                 .newton
                 .solve(&ctx, &mut self.state.x, &mut self.state.v);
             stats.absorb(&info);
+            if let Some(contact) = &self.newton.potential().contact {
+                stats.contacts = contact.active_pairs();
+                stats.min_distance = contact.min_distance();
+                stats.contact_energy = contact.energy();
+                self.contact_forces.copy_from_slice(contact.forces());
+            }
             self.state.t = t;
             let finite = self
                 .state

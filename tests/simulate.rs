@@ -1547,3 +1547,72 @@ youngs_modulus = 1e6
 [[fixed]]
 region = { box = { min = [-0.01, -1, -1], max = [0.01, 2, 2] } }
 "#;
+
+/// Contact I: a soft block dropped on the ground plane settles on it, never goes below it, and
+/// the contact forces carry its weight once it rests.
+#[test]
+fn dropped_block_settles_on_the_ground_and_its_contact_forces_carry_its_weight() {
+    use tetsim::contact::obstacle::{Obstacle, Shape};
+    use tetsim::contact::{ContactSetup, ObstacleSpec};
+    let scene = Scene::parse(
+        r#"
+        [mesh]
+        generator = { box = { min = [0, 0.05, 0], max = [0.2, 0.25, 0.2], cells = [4, 4, 4] } }
+        [material]
+        youngs_modulus = 1e5
+        density = 1000
+        [solver]
+        dt = 0.01
+        frames = 60
+        rayleigh_mass = 2.0
+        "#,
+        "drop.toml".as_ref(),
+        ".".as_ref(),
+    )
+    .unwrap();
+    let ground = Obstacle::new(
+        Shape::Plane {
+            point: Vec3::zeros(),
+            normal: Vec3::y(),
+        },
+        Default::default(),
+    )
+    .unwrap();
+    let setup = ContactSetup {
+        obstacles: vec![ObstacleSpec {
+            name: "obstacle 1".into(),
+            obstacle: ground,
+            friction: None,
+            duration: None,
+        }],
+        params: Default::default(),
+    };
+    let mut sim = Simulation::from_scene(&scene)
+        .unwrap()
+        .with_contact(setup)
+        .unwrap();
+    let weight: f64 = sim.body.masses().iter().sum::<f64>() * 9.81;
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        let lowest = sim
+            .state
+            .x
+            .iter()
+            .map(|p| p.y)
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            lowest > 0.0,
+            "frame {}: a vertex at y = {lowest}",
+            stats.frame
+        );
+        // It falls 5 cm: 0.1 s, 10 frames.
+        if stats.frame > 12 {
+            assert!(stats.contacts > 0, "frame {}: no contact", stats.frame);
+        }
+    }
+    let carried: f64 = sim.contact_forces().iter().map(|f| f.y).sum();
+    assert!(
+        (carried - weight).abs() < 0.02 * weight,
+        "contact forces carry {carried} N of a {weight} N weight"
+    );
+}

@@ -41,6 +41,7 @@ pub mod friction;
 pub mod obstacle;
 pub mod setup;
 pub mod surface;
+pub mod term;
 
 pub use setup::{ContactParams, ContactSetup, ObstacleSpec};
 

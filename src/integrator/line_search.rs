@@ -28,7 +28,8 @@ impl Newton {
         self.x_start.copy_from_slice(x);
         let slope = -cg::dot(&self.rhs, &self.dx, &mut self.partials); // ∇Φ·dx
         let potential_merit = ctx.has_potential();
-        let mut alpha = 1.0;
+        // Never past what continuous collision detection finds free (1 without contact).
+        let mut alpha = self.potential.max_step(ctx, x, &self.dx);
         let mut best: Option<(f64, f64)> = None; // (merit, alpha)
         // With γ > 0, the largest step on which the undamped incremental potential met Armijo.
         let mut downhill: Option<(usize, f64)> = None; // (cut, alpha)

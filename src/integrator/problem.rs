@@ -60,7 +60,9 @@ pub struct IncrementalPotential {
     pub elasticity: Elasticity,
     /// Gravity and dead loads.
     pub external: ExternalForces,
-    /// Further terms, evaluated after the three above.
+    /// Contact with rigid obstacles, when the scene has any.
+    pub contact: Option<crate::contact::term::ContactTerm>,
+    /// Further terms, evaluated after the ones above.
     pub extra: Vec<Box<dyn Term>>,
     /// The energy of every term at the last evaluation, in term order.
     energies: Vec<f64>,
@@ -88,6 +90,7 @@ impl IncrementalPotential {
             inertia: Inertia,
             elasticity: Elasticity::new(body, params.definiteness),
             external: ExternalForces,
+            contact: None,
             extra: Vec::new(),
             energies: Vec::new(),
             diagonal: vec![0.0; body.vertex_count()],
@@ -106,7 +109,15 @@ impl IncrementalPotential {
             &mut self.external,
         ]
         .into_iter()
+        .chain(self.contact.iter_mut().map(|t| t as &mut dyn Term))
         .chain(self.extra.iter_mut().map(|t| &mut **t as &mut dyn Term))
+    }
+
+    /// The largest fraction of the move x → x + dx every term allows (see [`Term::max_step`]).
+    pub fn max_step(&mut self, ctx: &StepContext<'_>, x: &[Vec3], dx: &[Vec3]) -> f64 {
+        self.terms_mut()
+            .map(|t| t.max_step(ctx, x, dx))
+            .fold(1.0, f64::min)
     }
 
     /// Every term's name, in order.
@@ -116,6 +127,7 @@ impl IncrementalPotential {
             self.elasticity.name(),
             self.external.name(),
         ];
+        names.extend(self.contact.iter().map(|t| t.name()));
         names.extend(self.extra.iter().map(|t| t.name()));
         names
     }
@@ -272,6 +284,11 @@ impl System for Problem<'_, '_> {
         // other block terms add to it, the lumped diagonal comes last.
         let ctx = self.ctx;
         self.potential.elasticity.write_matrix(ctx, a);
+        if let Some(contact) = &mut self.potential.contact
+            && contact.hessian_shape(ctx) == HessianShape::Blocks
+        {
+            contact.add_to_matrix(ctx, a);
+        }
         for term in self.potential.extra.iter_mut() {
             if term.hessian_shape(ctx) == HessianShape::Blocks {
                 term.add_to_matrix(ctx, a);

@@ -84,6 +84,12 @@ pub trait Term: Send {
 
     /// Use the exact (true) Hessian instead of the definiteness-projected one, or back.
     fn use_exact(&mut self, _exact: bool) {}
+
+    /// The largest fraction of the move from x to x + dx this term allows (contact: what
+    /// continuous collision detection finds free); the line search starts there. Default 1.
+    fn max_step(&mut self, _ctx: &StepContext<'_>, _x: &[Vec3], _dx: &[Vec3]) -> f64 {
+        1.0
+    }
 }
 
 /// Inertia and mass damping of a backward-Euler step:

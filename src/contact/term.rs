@@ -1,0 +1,539 @@
+//! Contact as a term of the incremental potential: the IPC barrier between the body's surface and
+//! rigid obstacles, `B(x) = κ Σₖ mₖ b(dₖ(x))` over the pairs closer than d̂ (see [`super`]).
+//!
+//! Obstacles sit where their motion puts them at the end of the step ([`ContactTerm::begin_step`]);
+//! only body vertices are unknowns, so every pair's Hessian lives on one body vertex, edge or
+//! face, inside the mesh's own adjacency: obstacle contact never changes the matrix pattern.
+//! Each pair's Hessian over its body DOFs is projected to PSD. [`ContactTerm::max_step`] is the
+//! CCD bound the line search starts from, so no accepted iterate passes through an obstacle.
+//!
+//! Friction (lagged, [`super::friction`]) and body–body and self-contact are not wired yet.
+
+use nalgebra::{SMatrix, SVector};
+use rayon::prelude::*;
+
+use super::ContactSetup;
+use super::barrier::{
+    barrier_derivatives, edge_edge_mollified_barrier, edge_edge_mollifier_threshold,
+    min_barrier_stiffness, project_psd,
+};
+use super::broad::cross_candidates;
+use super::ccd::{
+    CcdParams, edge_edge_ccd, point_plane_ccd, point_triangle_ccd, sphere_triangle_ccd,
+};
+use super::distance::{
+    Derivatives, point_plane_distance_derivatives, point_triangle_distance_derivatives,
+    sphere_triangle_distance_derivatives,
+};
+use super::obstacle::Shape;
+use super::surface::ContactSurface;
+use crate::integrator::{HessianShape, StepContext, Term};
+use crate::linear::sparse::BlockCsr;
+use crate::math::{Mat3, Vec3};
+
+/// One active pair: up to four body vertices and the pair's energy derivatives over them.
+#[derive(Clone, Debug)]
+struct Pair {
+    vertices: [usize; 4],
+    count: usize,
+    energy: f64,
+    gradient: SVector<f64, 12>,
+    projected: SMatrix<f64, 12, 12>,
+    exact: SMatrix<f64, 12, 12>,
+    distance: f64,
+}
+
+/// An obstacle's geometry at the end of the current step.
+struct Placed {
+    positions: Vec<Vec3>,
+    plane: Option<(Vec3, Vec3)>,
+    sphere: Option<(Vec3, f64)>,
+}
+
+/// The barrier term between one body and the scene's rigid obstacles.
+pub struct ContactTerm {
+    setup: ContactSetup,
+    surface: ContactSurface,
+    placed: Vec<Placed>,
+    /// d̂, squared (m²).
+    dhat: f64,
+    kappa: f64,
+    kappa_max: f64,
+    bbox_diagonal: f64,
+    pairs: Vec<Pair>,
+    exact: bool,
+    energy: f64,
+    min_distance: Option<f64>,
+    previous_min_distance: f64,
+    forces: Vec<Vec3>,
+}
+
+impl ContactTerm {
+    /// The term for `body`'s surface (rest positions `rest`, vertex masses `masses`) against
+    /// `setup`'s obstacles.
+    pub fn new(setup: ContactSetup, mesh: &crate::mesh::TetMesh, masses: &[f64]) -> Self {
+        let surface = ContactSurface::from_mesh(mesh);
+        let (lo, hi) = mesh.bounding_box();
+        let bbox_diagonal = (hi - lo).norm();
+        let dhat_m = setup.params.distance.unwrap_or(1e-3 * bbox_diagonal);
+        let dhat = dhat_m * dhat_m;
+        let average_mass = masses.iter().sum::<f64>() / masses.len().max(1) as f64;
+        let kappa = min_barrier_stiffness(dhat, bbox_diagonal, average_mass, 1e11);
+        let mut term = ContactTerm {
+            setup,
+            surface,
+            placed: Vec::new(),
+            dhat,
+            kappa,
+            kappa_max: 100.0 * kappa,
+            bbox_diagonal,
+            pairs: Vec::new(),
+            exact: false,
+            energy: 0.0,
+            min_distance: None,
+            previous_min_distance: f64::INFINITY,
+            forces: vec![Vec3::zeros(); mesh.positions.len()],
+        };
+        term.place(|_| 0.0);
+        term
+    }
+
+    /// d̂ (m, unsquared).
+    pub fn activation_distance(&self) -> f64 {
+        self.dhat.sqrt()
+    }
+
+    /// Move the obstacles to where their motions put them at the end of the coming step (`ramp`
+    /// gives the ramp factor of a motion with the given duration) and adapt κ: doubled (up to
+    /// 100× its start) when the smallest gap is tiny and still closing (IPC).
+    pub fn begin_step(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
+        self.place(ramp);
+        if let Some(d) = self.min_distance {
+            let d2 = d * d;
+            self.kappa = super::barrier::update_barrier_stiffness(
+                self.previous_min_distance,
+                d2,
+                self.kappa_max,
+                self.kappa,
+                self.bbox_diagonal,
+            );
+            self.previous_min_distance = d2;
+        }
+    }
+
+    fn place(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
+        self.placed = self
+            .setup
+            .obstacles
+            .iter()
+            .map(|spec| {
+                let s = ramp(spec.duration);
+                Placed {
+                    positions: spec.obstacle.positions_at(s),
+                    plane: spec.obstacle.plane_at(s),
+                    sphere: spec.obstacle.sphere_at(s),
+                }
+            })
+            .collect();
+    }
+
+    /// Why the body at x passes through an obstacle (naming the obstacle and a body vertex),
+    /// or None: a vertex on the wrong side of a plane or inside a sphere or box, or a surface
+    /// edge crossing an obstacle triangle.
+    pub fn intersection(&self, x: &[Vec3]) -> Option<String> {
+        for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
+            let inside = |v: usize| -> bool {
+                let p = x[v];
+                match &spec.obstacle.shape {
+                    Shape::Plane { .. } => placed
+                        .plane
+                        .is_some_and(|(o, n)| super::distance::point_plane_gap(&p, &o, &n) <= 0.0),
+                    Shape::Sphere { .. } => placed.sphere.is_some_and(|(c, r)| (p - c).norm() <= r),
+                    Shape::Box { min, max } => (0..3).all(|k| p[k] > min[k] && p[k] < max[k]),
+                    Shape::Mesh(_) => false,
+                }
+            };
+            if let Some(&v) = self.surface.vertices.iter().find(|&&v| inside(v)) {
+                return Some(format!(
+                    "the initial state passes through {}: vertex {v} at ({:.4}, {:.4}, {:.4}) is inside it",
+                    spec.name, x[v].x, x[v].y, x[v].z
+                ));
+            }
+            if matches!(spec.obstacle.shape, Shape::Box { .. } | Shape::Mesh(_)) {
+                let obstacle_surface = spec.obstacle.contact_surface();
+                let y = &placed.positions;
+                let body = self.surface.primitives(x, x);
+                let other = obstacle_surface.primitives(y, y);
+                let c = cross_candidates(&body, &other, 0.0);
+                for &[ea, eb] in &c.edge_edge {
+                    let [a0, a1] = self.surface.edges[ea];
+                    let [b0, b1] = obstacle_surface.edges[eb];
+                    let d = super::distance::edge_edge_distance(&x[a0], &x[a1], &y[b0], &y[b1]);
+                    if d <= 0.0 {
+                        return Some(format!(
+                            "the initial state passes through {}: the surface edge of vertices {a0} and {a1} touches it",
+                            spec.name
+                        ));
+                    }
+                }
+                for &[v, f] in &c.point_triangle {
+                    let v = self.surface.vertices[v];
+                    let [a, b, cc] = obstacle_surface.faces[f].map(|i| y[i]);
+                    if super::distance::point_triangle_distance(&x[v], &a, &b, &cc) <= 0.0 {
+                        return Some(format!(
+                            "the initial state passes through {}: vertex {v} lies on it",
+                            spec.name
+                        ));
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    /// Active pairs at the last evaluation.
+    pub fn active_pairs(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// The smallest gap found at the last evaluation (m; among the pairs within reach of d̂,
+    /// all vertices for planes, all faces for spheres), None when nothing was within reach.
+    pub fn min_distance(&self) -> Option<f64> {
+        self.min_distance
+    }
+
+    /// Barrier energy at the last evaluation, J.
+    pub fn energy(&self) -> f64 {
+        self.energy
+    }
+
+    /// Contact forces per vertex at the last evaluation, N.
+    pub fn forces(&self) -> &[Vec3] {
+        &self.forces
+    }
+
+    /// The pairs within d̂ at x, with their derivatives (κ not applied), in a fixed order.
+    fn collect_pairs(&self, x: &[Vec3]) -> (Vec<Pair>, Option<f64>) {
+        let dhat = self.dhat;
+        let reach = dhat.sqrt();
+        let mut pairs: Vec<Pair> = Vec::new();
+        let mut min_d = f64::INFINITY;
+        let surface = &self.surface;
+        for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
+            match (&spec.obstacle.shape, placed.plane, placed.sphere) {
+                (Shape::Plane { .. }, Some((origin, normal)), _) => {
+                    let found: Vec<(f64, Option<Pair>)> = surface
+                        .vertices
+                        .par_iter()
+                        .map(|&v| {
+                            let d = point_plane_distance_derivatives(&x[v], &origin, &normal);
+                            let gap = super::distance::point_plane_gap(&x[v], &origin, &normal);
+                            (gap, (d.value < dhat).then(|| pair(&[Some(v)], &d, dhat)))
+                        })
+                        .collect();
+                    for (gap, p) in found {
+                        min_d = min_d.min(gap);
+                        pairs.extend(p);
+                    }
+                }
+                (Shape::Sphere { .. }, _, Some((center, radius))) => {
+                    let found: Vec<(f64, Option<Pair>)> = surface
+                        .faces
+                        .par_iter()
+                        .map(|f| {
+                            let [a, b, c] = f.map(|v| x[v]);
+                            let gap =
+                                super::distance::sphere_triangle_gap(&center, radius, &a, &b, &c);
+                            let near = gap * gap < dhat && gap > 0.0;
+                            let p = near.then(|| {
+                                let d = sphere_triangle_distance_derivatives(
+                                    &center, radius, &a, &b, &c,
+                                );
+                                pair(&[Some(f[0]), Some(f[1]), Some(f[2])], &d, dhat)
+                            });
+                            (gap, p)
+                        })
+                        .collect();
+                    for (gap, p) in found {
+                        min_d = min_d.min(gap);
+                        pairs.extend(p);
+                    }
+                }
+                _ => {
+                    let obstacle_surface = spec.obstacle.contact_surface();
+                    let y = &placed.positions;
+                    let body = surface.primitives(x, x);
+                    let other = obstacle_surface.primitives(y, y);
+                    let candidates = cross_candidates(&body, &other, reach);
+                    let rest_y = spec.obstacle.positions_at(0.0);
+                    let mut found: Vec<(f64, Option<Pair>)> = candidates
+                        .point_triangle
+                        .par_iter()
+                        .map(|&[v, f]| {
+                            let v = surface.vertices[v];
+                            let [a, b, c] = obstacle_surface.faces[f].map(|i| y[i]);
+                            let d = point_triangle_distance_derivatives(&x[v], &a, &b, &c);
+                            let p = (d.value < dhat)
+                                .then(|| pair(&[Some(v), None, None, None], &d, dhat));
+                            (d.value.sqrt(), p)
+                        })
+                        .collect();
+                    found.par_extend(candidates.triangle_point.par_iter().map(|&[f, v]| {
+                        let face = surface.faces[f];
+                        let p = y[obstacle_surface.vertices[v]];
+                        let [a, b, c] = face.map(|i| x[i]);
+                        let d = point_triangle_distance_derivatives(&p, &a, &b, &c);
+                        let q = (d.value < dhat).then(|| {
+                            pair(
+                                &[None, Some(face[0]), Some(face[1]), Some(face[2])],
+                                &d,
+                                dhat,
+                            )
+                        });
+                        (d.value.sqrt(), q)
+                    }));
+                    found.par_extend(candidates.edge_edge.par_iter().map(|&[ea, eb]| {
+                        let [a0, a1] = surface.edges[ea];
+                        let [b0, b1] = obstacle_surface.edges[eb];
+                        let ends = [x[a0], x[a1], y[b0], y[b1]];
+                        let distance = super::distance::edge_edge_distance(
+                            &ends[0], &ends[1], &ends[2], &ends[3],
+                        );
+                        if distance >= dhat {
+                            return (distance.sqrt(), None);
+                        }
+                        let rest = &self.surface_rest_edge(ea, x);
+                        let eps_x = edge_edge_mollifier_threshold(
+                            &rest[0],
+                            &rest[1],
+                            &rest_y[b0],
+                            &rest_y[b1],
+                        );
+                        let b = edge_edge_mollified_barrier(&ends, dhat, eps_x);
+                        let mut p = pair_of(&[Some(a0), Some(a1), None, None], &b);
+                        p.distance = distance;
+                        (distance.sqrt(), Some(p))
+                    }));
+                    for (gap, p) in found {
+                        min_d = min_d.min(gap);
+                        pairs.extend(p);
+                    }
+                }
+            }
+        }
+        (pairs, min_d.is_finite().then_some(min_d))
+    }
+
+    /// The rest positions of a body surface edge (for the mollifier's threshold). The body's
+    /// rest shape is not kept here: the current edge stands in (ε_x only sets where the
+    /// mollifier starts acting on nearly parallel edges).
+    fn surface_rest_edge(&self, e: usize, x: &[Vec3]) -> [Vec3; 2] {
+        let [a, b] = self.surface.edges[e];
+        [x[a], x[b]]
+    }
+
+    /// The largest fraction t ∈ (0, 1] of the move from x to x + dx that passes through no
+    /// obstacle (conservative CCD; 1 when nothing is in the way).
+    pub fn max_step(&self, x: &[Vec3], dx: &[Vec3]) -> f64 {
+        let end: Vec<Vec3> = x.iter().zip(dx).map(|(x, d)| x + d).collect();
+        let params = CcdParams::default();
+        let surface = &self.surface;
+        let mut t = 1.0f64;
+        for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
+            let toi = match (&spec.obstacle.shape, placed.plane, placed.sphere) {
+                (Shape::Plane { .. }, Some((origin, normal)), _) => surface
+                    .vertices
+                    .par_iter()
+                    .map(|&v| point_plane_ccd(&x[v], &end[v], &origin, &origin, &normal, &params))
+                    .reduce(|| 1.0, f64::min),
+                (Shape::Sphere { .. }, _, Some((center, radius))) => surface
+                    .faces
+                    .par_iter()
+                    .map(|f| {
+                        let (s, e) = (f.map(|v| x[v]), f.map(|v| end[v]));
+                        sphere_triangle_ccd(&center, &center, radius, &s, &e, &params)
+                    })
+                    .reduce(|| 1.0, f64::min),
+                _ => {
+                    let obstacle_surface = spec.obstacle.contact_surface();
+                    let y = &placed.positions;
+                    let body = surface.primitives(x, &end);
+                    let other = obstacle_surface.primitives(y, y);
+                    let c = cross_candidates(&body, &other, 0.0);
+                    let pt = c.point_triangle.par_iter().map(|&[v, f]| {
+                        let v = surface.vertices[v];
+                        let [a, b, cc] = obstacle_surface.faces[f].map(|i| y[i]);
+                        point_triangle_ccd(&[x[v], a, b, cc], &[end[v], a, b, cc], &params)
+                    });
+                    let tp = c.triangle_point.par_iter().map(|&[f, v]| {
+                        let p = y[obstacle_surface.vertices[v]];
+                        let face = surface.faces[f];
+                        let (s, e) = (face.map(|i| x[i]), face.map(|i| end[i]));
+                        point_triangle_ccd(&[p, s[0], s[1], s[2]], &[p, e[0], e[1], e[2]], &params)
+                    });
+                    let ee = c.edge_edge.par_iter().map(|&[ea, eb]| {
+                        let [a0, a1] = surface.edges[ea];
+                        let [b0, b1] = obstacle_surface.edges[eb];
+                        edge_edge_ccd(
+                            &[x[a0], x[a1], y[b0], y[b1]],
+                            &[end[a0], end[a1], y[b0], y[b1]],
+                            &params,
+                        )
+                    });
+                    pt.chain(tp).chain(ee).reduce(|| 1.0, f64::min)
+                }
+            };
+            t = t.min(toi);
+        }
+        t
+    }
+}
+
+/// A pair from distance derivatives over blocks (Some(body vertex) or None for obstacle
+/// points), barrier applied.
+fn pair<const N: usize>(blocks: &[Option<usize>], d: &Derivatives<N>, dhat: f64) -> Pair {
+    let mut p = pair_of(blocks, &barrier_derivatives(d, dhat));
+    p.distance = d.value;
+    p
+}
+
+/// Keep the body blocks of a pair's derivatives (value, gradient, Hessian).
+fn pair_of<const N: usize>(blocks: &[Option<usize>], b: &Derivatives<N>) -> Pair {
+    let mut p = Pair {
+        vertices: [0; 4],
+        count: 0,
+        energy: b.value,
+        gradient: SVector::zeros(),
+        projected: SMatrix::zeros(),
+        exact: SMatrix::zeros(),
+        distance: 0.0,
+    };
+    let body: Vec<(usize, usize)> = blocks
+        .iter()
+        .enumerate()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+        .collect();
+    for (slot, &(k, v)) in body.iter().enumerate() {
+        p.vertices[slot] = v;
+        for r in 0..3 {
+            p.gradient[3 * slot + r] = b.gradient[3 * k + r];
+        }
+        for (slot2, &(l, _)) in body.iter().enumerate() {
+            for r in 0..3 {
+                for c in 0..3 {
+                    p.exact[(3 * slot + r, 3 * slot2 + c)] = b.hessian[(3 * k + r, 3 * l + c)];
+                }
+            }
+        }
+    }
+    p.count = body.len();
+    p.projected = project_psd(&p.exact);
+    p
+}
+
+impl Term for ContactTerm {
+    fn name(&self) -> &'static str {
+        "contact"
+    }
+
+    fn evaluate(
+        &mut self,
+        _ctx: &StepContext<'_>,
+        x: &[Vec3],
+        _v: &[Vec3],
+        force: &mut [Vec3],
+        _partials: &mut [f64],
+    ) -> f64 {
+        let (pairs, min_d) = self.collect_pairs(x);
+        self.pairs = pairs;
+        self.min_distance = min_d;
+        self.forces.iter_mut().for_each(|f| *f = Vec3::zeros());
+        let mut energy = 0.0;
+        for p in &self.pairs {
+            energy += self.kappa * p.energy;
+            for k in 0..p.count {
+                let g = Vec3::new(
+                    p.gradient[3 * k],
+                    p.gradient[3 * k + 1],
+                    p.gradient[3 * k + 2],
+                );
+                self.forces[p.vertices[k]] -= self.kappa * g;
+            }
+        }
+        for (f, c) in force.iter_mut().zip(&self.forces) {
+            *f += c;
+        }
+        self.energy = energy;
+        energy
+    }
+
+    fn hessian_shape(&self, _ctx: &StepContext<'_>) -> HessianShape {
+        if self.pairs.is_empty() {
+            HessianShape::Zero
+        } else {
+            HessianShape::Blocks
+        }
+    }
+
+    fn add_hessian_product(&mut self, _ctx: &StepContext<'_>, p: &[Vec3], out: &mut [Vec3]) {
+        for pair in &self.pairs {
+            let h = if self.exact {
+                &pair.exact
+            } else {
+                &pair.projected
+            };
+            for k in 0..pair.count {
+                let mut sum = Vec3::zeros();
+                for l in 0..pair.count {
+                    sum += block(h, k, l) * p[pair.vertices[l]];
+                }
+                out[pair.vertices[k]] += self.kappa * sum;
+            }
+        }
+    }
+
+    fn add_diagonal_blocks(&mut self, _ctx: &StepContext<'_>, out: &mut [Mat3]) {
+        for pair in &self.pairs {
+            let h = if self.exact {
+                &pair.exact
+            } else {
+                &pair.projected
+            };
+            for k in 0..pair.count {
+                out[pair.vertices[k]] += self.kappa * block(h, k, k);
+            }
+        }
+    }
+
+    fn add_to_matrix(&mut self, _ctx: &StepContext<'_>, a: &mut BlockCsr) {
+        for pair in &self.pairs {
+            let h = if self.exact {
+                &pair.exact
+            } else {
+                &pair.projected
+            };
+            for k in 0..pair.count {
+                for l in 0..pair.count {
+                    let (i, j) = (pair.vertices[k], pair.vertices[l]);
+                    let at = a
+                        .pattern
+                        .find(i, j)
+                        .expect("obstacle pairs couple vertices of one face or edge");
+                    a.values[at] += self.kappa * block(h, k, l);
+                }
+            }
+        }
+    }
+
+    fn use_exact(&mut self, exact: bool) {
+        self.exact = exact;
+    }
+
+    fn max_step(&mut self, _ctx: &StepContext<'_>, x: &[Vec3], dx: &[Vec3]) -> f64 {
+        ContactTerm::max_step(self, x, dx)
+    }
+}
+
+fn block(h: &SMatrix<f64, 12, 12>, k: usize, l: usize) -> Mat3 {
+    h.fixed_view::<3, 3>(3 * k, 3 * l).into_owned()
+}
