@@ -385,7 +385,8 @@ impl Simulation {
                 .external_forces(&clock, self.body.masses(), &mut self.f_ext);
             if let Some(contact) = &mut self.newton.potential_mut().contact {
                 // Obstacles where the step ends; the guess no further than CCD finds free.
-                contact.begin_step(|duration| clock.ramp(duration));
+                let step = if kind_is_dynamic { h } else { 1.0 };
+                contact.begin_step(&self.xn, step, |duration| clock.ramp(duration));
                 let dx: Vec<Vec3> = self
                     .state
                     .x
@@ -424,6 +425,7 @@ impl Simulation {
                 stats.contacts = contact.active_pairs();
                 stats.min_distance = contact.min_distance();
                 stats.contact_energy = contact.energy();
+                stats.friction_dissipation += contact.friction_dissipation();
                 self.contact_forces.copy_from_slice(contact.forces());
             }
             self.state.t = t;

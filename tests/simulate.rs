@@ -1616,3 +1616,113 @@ fn dropped_block_settles_on_the_ground_and_its_contact_forces_carry_its_weight()
         "contact forces carry {carried} N of a {weight} N weight"
     );
 }
+
+/// Runs a block resting on the ground (y = 0) with gravity tilted by `degrees` and friction
+/// `mu` for 0.6 s; returns the mass-weighted mean velocities along the slope at 0.2 s and at the
+/// end and the tangential displacement (m).
+fn block_on_slope(degrees: f64, mu: f64) -> (f64, f64, f64) {
+    use tetsim::contact::obstacle::{Obstacle, Shape};
+    use tetsim::contact::{ContactSetup, ObstacleSpec};
+    let theta = degrees.to_radians();
+    let g = 9.81;
+    let scene = Scene::parse(
+        &format!(
+            r#"
+            gravity = [{}, {}, 0.0]
+            [mesh]
+            generator = {{ box = {{ min = [0, 2e-4, 0], max = [0.2, 0.1002, 0.2], cells = [4, 2, 4] }} }}
+            [material]
+            youngs_modulus = 1e6
+            density = 1000
+            [solver]
+            dt = 0.01
+            frames = 60
+            "#,
+            g * theta.sin(),
+            -g * theta.cos()
+        ),
+        "slope.toml".as_ref(),
+        ".".as_ref(),
+    )
+    .unwrap();
+    let ground = Obstacle::new(
+        Shape::Plane {
+            point: Vec3::zeros(),
+            normal: Vec3::y(),
+        },
+        Default::default(),
+    )
+    .unwrap();
+    let setup = ContactSetup {
+        obstacles: vec![ObstacleSpec {
+            name: "slope".into(),
+            obstacle: ground,
+            friction: Some(mu),
+            duration: None,
+        }],
+        params: Default::default(),
+    };
+    let mut sim = Simulation::from_scene(&scene)
+        .unwrap()
+        .with_contact(setup)
+        .unwrap();
+    let masses = sim.body.masses().to_vec();
+    let total: f64 = masses.iter().sum();
+    let mean_vx = |sim: &Simulation| {
+        sim.state
+            .v
+            .iter()
+            .zip(&masses)
+            .map(|(v, m)| m * v.x)
+            .sum::<f64>()
+            / total
+    };
+    let x0 = sim.state.x.clone();
+    let mut early = 0.0;
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        assert!(stats.converged, "frame {}", stats.frame);
+        assert!(
+            sim.state.x.iter().all(|p| p.y > 0.0),
+            "frame {}",
+            stats.frame
+        );
+        if stats.frame == 20 {
+            early = mean_vx(&sim);
+        }
+    }
+    let slid = sim
+        .state
+        .x
+        .iter()
+        .zip(&x0)
+        .zip(&masses)
+        .map(|((x, x0), m)| m * (x.x - x0.x))
+        .sum::<f64>()
+        / total;
+    (early, mean_vx(&sim), slid)
+}
+
+/// Coulomb's law on a slope: below tan θ = μ the block sticks, above it slides with
+/// a = g (sin θ − μ cos θ).
+#[test]
+fn block_on_a_slope_sticks_or_slides_by_coulombs_law() {
+    let mu = 0.5;
+    // tan 20° = 0.36 < μ: sticks (creeps no faster than the smoothing's ε_v = 1e-3 L/s).
+    let (_, v_end, slid) = block_on_slope(20.0, mu);
+    eprintln!("slope: stick v = {v_end:.2e} m/s after 0.6 s");
+    assert!(
+        v_end.abs() < 2e-3 && slid.abs() < 1e-3,
+        "stick: v {v_end} m/s, slid {slid} m"
+    );
+    // tan 40° = 0.84 > μ: slides with a = g (sin θ − μ cos θ) = 2.55 m/s².
+    let theta = 40f64.to_radians();
+    let expected = 9.81 * (theta.sin() - mu * theta.cos());
+    let (v_early, v_end, _) = block_on_slope(40.0, mu);
+    let a = (v_end - v_early) / 0.4;
+    eprintln!("slope: stick creep {slid:.2e} m; slide a = {a:.4} m/s² (Coulomb {expected:.4})");
+    assert!(
+        (a - expected).abs() < 0.05 * expected,
+        "slide: a = {a} m/s², expected {expected}"
+    );
+}

@@ -25,6 +25,9 @@ use super::distance::{
     Derivatives, point_plane_distance_derivatives, point_triangle_distance_derivatives,
     sphere_triangle_distance_derivatives,
 };
+use super::friction::{
+    FrictionPair, TangentFrame, edge_edge_frame, f1, normal_force_magnitude, point_triangle_frame,
+};
 use super::obstacle::Shape;
 use super::surface::ContactSurface;
 use crate::integrator::{HessianShape, StepContext, Term};
@@ -66,6 +69,24 @@ pub struct ContactTerm {
     min_distance: Option<f64>,
     previous_min_distance: f64,
     forces: Vec<Vec3>,
+    /// Lagged friction: the pairs at the start of the step with their frames and normal forces.
+    friction: Vec<FrictionLag>,
+    /// Positions at the start of the step (the friction's lagged state).
+    lagged: Vec<Vec3>,
+    /// Smoothing ε = ε_v·h of friction (m).
+    friction_eps: f64,
+    friction_energy: f64,
+    dissipation: f64,
+    barrier_pairs: usize,
+}
+
+/// One pair's lagged friction: slots of body vertices (Some) or obstacle points (None, moving by
+/// `moved` over the step).
+#[derive(Clone, Debug)]
+struct FrictionLag {
+    pair: FrictionPair<12>,
+    slots: [Option<usize>; 4],
+    moved: [Vec3; 4],
 }
 
 impl ContactTerm {
@@ -93,6 +114,12 @@ impl ContactTerm {
             min_distance: None,
             previous_min_distance: f64::INFINITY,
             forces: vec![Vec3::zeros(); mesh.positions.len()],
+            friction: Vec::new(),
+            lagged: mesh.positions.clone(),
+            friction_eps: 1e-3 * bbox_diagonal,
+            friction_energy: 0.0,
+            dissipation: 0.0,
+            barrier_pairs: 0,
         };
         term.place(|_| 0.0);
         term
@@ -106,8 +133,17 @@ impl ContactTerm {
     /// Move the obstacles to where their motions put them at the end of the coming step (`ramp`
     /// gives the ramp factor of a motion with the given duration) and adapt κ: doubled (up to
     /// 100× its start) when the smallest gap is tiny and still closing (IPC).
-    pub fn begin_step(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
+    ///
+    /// Friction is lagged here: the pairs within d̂ at `xn` (obstacles where the last step left
+    /// them), their tangent frames and normal forces λ = −2κ√d b′(d), and the smoothing
+    /// ε = ε_v·h with ε_v = 10⁻³ bounding-box diagonals per second (`h` the step, s; 1 s when
+    /// quasistatic).
+    pub fn begin_step(&mut self, xn: &[Vec3], h: f64, ramp: impl Fn(Option<f64>) -> f64) {
+        let start = std::mem::take(&mut self.placed);
         self.place(ramp);
+        self.friction_eps = 1e-3 * self.bbox_diagonal * h;
+        self.lag_friction(xn, &start);
+        self.lagged.copy_from_slice(xn);
         if let Some(d) = self.min_distance {
             let d2 = d * d;
             self.kappa = super::barrier::update_barrier_stiffness(
@@ -119,6 +155,159 @@ impl ContactTerm {
             );
             self.previous_min_distance = d2;
         }
+    }
+
+    /// The friction pairs at `xn` against the obstacles as they were (`start`), with each
+    /// obstacle point's move to where it is now.
+    fn lag_friction(&mut self, xn: &[Vec3], start: &[Placed]) {
+        self.friction.clear();
+        let dhat = self.dhat;
+        let surface = &self.surface;
+        for (o, spec) in self.setup.obstacles.iter().enumerate() {
+            let mu = spec.friction.unwrap_or(self.setup.params.friction);
+            if mu <= 0.0 {
+                continue;
+            }
+            let (then, now) = (&start[o], &self.placed[o]);
+            let lag = |d: f64, frame: TangentFrame<12>, slots, moved| FrictionLag {
+                pair: FrictionPair {
+                    frame,
+                    mu,
+                    normal_force: normal_force_magnitude(d, dhat, self.kappa),
+                },
+                slots,
+                moved,
+            };
+            match (&spec.obstacle.shape, then.plane, then.sphere) {
+                (Shape::Plane { .. }, Some((origin, normal)), _) => {
+                    let shift = now.plane.map_or(Vec3::zeros(), |(o1, _)| o1 - origin);
+                    for &v in &surface.vertices {
+                        let g = super::distance::point_plane_gap(&xn[v], &origin, &normal);
+                        if g > 0.0 && g * g < dhat {
+                            let frame = TangentFrame {
+                                basis: plane_basis(&normal),
+                                coefficients: [1.0, -1.0, 0.0, 0.0],
+                            };
+                            let moved = [Vec3::zeros(), shift, Vec3::zeros(), Vec3::zeros()];
+                            self.friction.push(lag(
+                                g * g,
+                                frame,
+                                [Some(v), None, None, None],
+                                moved,
+                            ));
+                        }
+                    }
+                }
+                (Shape::Sphere { .. }, _, Some((center, radius))) => {
+                    let shift = now.sphere.map_or(Vec3::zeros(), |(c1, _)| c1 - center);
+                    for f in &surface.faces {
+                        let [a, b, c] = f.map(|v| xn[v]);
+                        let g = super::distance::sphere_triangle_gap(&center, radius, &a, &b, &c);
+                        if g > 0.0 && g * g < dhat {
+                            let frame = point_triangle_frame(&center, &a, &b, &c);
+                            let moved = [shift, Vec3::zeros(), Vec3::zeros(), Vec3::zeros()];
+                            let slots = [None, Some(f[0]), Some(f[1]), Some(f[2])];
+                            self.friction.push(lag(g * g, frame, slots, moved));
+                        }
+                    }
+                }
+                _ => {
+                    let os = spec.obstacle.contact_surface();
+                    let (y, y1) = (&then.positions, &now.positions);
+                    let body = surface.primitives(xn, xn);
+                    let c = cross_candidates(&body, &os.primitives(y, y), dhat.sqrt());
+                    for &[v, f] in &c.point_triangle {
+                        let v = surface.vertices[v];
+                        let face = os.faces[f];
+                        let [a, b, cc] = face.map(|i| y[i]);
+                        let d = super::distance::point_triangle_distance(&xn[v], &a, &b, &cc);
+                        if d > 0.0 && d < dhat {
+                            let moved = [
+                                Vec3::zeros(),
+                                y1[face[0]] - a,
+                                y1[face[1]] - b,
+                                y1[face[2]] - cc,
+                            ];
+                            let frame = point_triangle_frame(&xn[v], &a, &b, &cc);
+                            self.friction
+                                .push(lag(d, frame, [Some(v), None, None, None], moved));
+                        }
+                    }
+                    for &[f, v] in &c.triangle_point {
+                        let face = surface.faces[f];
+                        let i = os.vertices[v];
+                        let [a, b, cc] = face.map(|k| xn[k]);
+                        let d = super::distance::point_triangle_distance(&y[i], &a, &b, &cc);
+                        if d > 0.0 && d < dhat {
+                            let moved = [y1[i] - y[i], Vec3::zeros(), Vec3::zeros(), Vec3::zeros()];
+                            let frame = point_triangle_frame(&y[i], &a, &b, &cc);
+                            let slots = [None, Some(face[0]), Some(face[1]), Some(face[2])];
+                            self.friction.push(lag(d, frame, slots, moved));
+                        }
+                    }
+                    for &[ea, eb] in &c.edge_edge {
+                        let [a0, a1] = surface.edges[ea];
+                        let [b0, b1] = os.edges[eb];
+                        let d =
+                            super::distance::edge_edge_distance(&xn[a0], &xn[a1], &y[b0], &y[b1]);
+                        if d > 0.0 && d < dhat {
+                            let moved =
+                                [Vec3::zeros(), Vec3::zeros(), y1[b0] - y[b0], y1[b1] - y[b1]];
+                            let frame = edge_edge_frame(&xn[a0], &xn[a1], &y[b0], &y[b1]);
+                            self.friction.push(lag(
+                                d,
+                                frame,
+                                [Some(a0), Some(a1), None, None],
+                                moved,
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Friction pairs at x: potential, dissipation rate's work Σ μλ f₁(y) y, and their pairs.
+    fn friction_pairs(&self, x: &[Vec3]) -> (f64, f64, Vec<Pair>) {
+        let eps = self.friction_eps;
+        let lagged = &self.lagged;
+        let results: Vec<(f64, f64, Pair)> = self
+            .friction
+            .par_iter()
+            .map(|lag| {
+                let dx: [Vec3; 4] = std::array::from_fn(|k| match lag.slots[k] {
+                    Some(v) => x[v] - lagged[v],
+                    None => lag.moved[k],
+                });
+                let u = lag.pair.frame.relative_displacement(&dx);
+                let y = u.norm();
+                let work = lag.pair.mu * lag.pair.normal_force * f1(y, eps) * y;
+                let d = Derivatives {
+                    value: lag.pair.potential(&dx, eps),
+                    gradient: lag.pair.gradient(&dx, eps),
+                    hessian: lag.pair.hessian(&dx, eps),
+                };
+                let mut p = pair_of(&lag.slots, &d);
+                // Already PSD (see `friction`): the exact Hessian is the projected one.
+                p.projected = p.exact;
+                p.distance = f64::INFINITY;
+                (d.value, work, p)
+            })
+            .collect();
+        let mut energy = 0.0;
+        let mut work = 0.0;
+        let mut pairs = Vec::with_capacity(results.len());
+        for (e, w, p) in results {
+            energy += e;
+            work += w;
+            pairs.push(p);
+        }
+        (energy, work, pairs)
+    }
+
+    /// Energy friction dissipated over the step at the last evaluation (Σ μλ f₁(‖u‖)‖u‖), J.
+    pub fn friction_dissipation(&self) -> f64 {
+        self.dissipation
     }
 
     fn place(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
@@ -193,7 +382,7 @@ impl ContactTerm {
 
     /// Active pairs at the last evaluation.
     pub fn active_pairs(&self) -> usize {
-        self.pairs.len()
+        self.barrier_pairs
     }
 
     /// The smallest gap found at the last evaluation (m; among the pairs within reach of d̂,
@@ -447,10 +636,26 @@ impl Term for ContactTerm {
         let (pairs, min_d) = self.collect_pairs(x);
         self.pairs = pairs;
         self.min_distance = min_d;
+        let barrier_pairs = self.pairs.len();
+        self.barrier_pairs = barrier_pairs;
+        // Friction pairs carry κ = 1 inside: they are scaled back below.
+        let (friction_energy, work, friction) = self.friction_pairs(x);
+        self.friction_energy = friction_energy;
+        self.dissipation = work;
+        let kappa = self.kappa;
+        self.pairs.extend(friction.into_iter().map(|mut p| {
+            p.energy /= kappa;
+            p.gradient /= kappa;
+            p.projected /= kappa;
+            p.exact /= kappa;
+            p
+        }));
         self.forces.iter_mut().for_each(|f| *f = Vec3::zeros());
         let mut energy = 0.0;
-        for p in &self.pairs {
+        for p in &self.pairs[..barrier_pairs] {
             energy += self.kappa * p.energy;
+        }
+        for p in &self.pairs {
             for k in 0..p.count {
                 let g = Vec3::new(
                     p.gradient[3 * k],
@@ -464,7 +669,7 @@ impl Term for ContactTerm {
             *f += c;
         }
         self.energy = energy;
-        energy
+        energy + friction_energy
     }
 
     fn hessian_shape(&self, _ctx: &StepContext<'_>) -> HessianShape {
@@ -536,4 +741,17 @@ impl Term for ContactTerm {
 
 fn block(h: &SMatrix<f64, 12, 12>, k: usize, l: usize) -> Mat3 {
     h.fixed_view::<3, 3>(3 * k, 3 * l).into_owned()
+}
+
+/// An orthonormal basis (3×2) of the plane with normal n.
+fn plane_basis(n: &Vec3) -> nalgebra::Matrix3x2<f64> {
+    let n = n.normalize();
+    let a = if n.x.abs() < 0.9 {
+        Vec3::x()
+    } else {
+        Vec3::y()
+    };
+    let t1 = n.cross(&a).normalize();
+    let t2 = n.cross(&t1);
+    nalgebra::Matrix3x2::from_columns(&[t1, t2])
 }
