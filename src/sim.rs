@@ -417,9 +417,44 @@ impl Simulation {
                 free: &self.free,
                 params: &self.params,
             };
-            let info = self
-                .newton
-                .solve(&ctx, &mut self.state.x, &mut self.state.v);
+            let mut info = self.newton.solve(&ctx, &mut self.state.x, &mut self.state.v);
+            // Moving obstacles go as far as they can without passing through the body, Newton
+            // moves the body out of their way, and so on until they arrive.
+            let mut pushes = 0;
+            while let Some(contact) = &mut self.newton.potential_mut().contact {
+                if contact.obstacles_arrived() || !info.converged {
+                    break;
+                }
+                pushes += 1;
+                let moved = contact.advance_obstacles(&self.state.x);
+                if pushes > MAX_OBSTACLE_PUSHES || (moved < 1e-6 && pushes > 1) {
+                    info.converged = false;
+                    info.failure = Some(format!(
+                        "a moving obstacle could not push the body out of its way within \
+                         {MAX_OBSTACLE_PUSHES} solves"
+                    ));
+                    break;
+                }
+                let mut more = self.newton.solve(&ctx, &mut self.state.x, &mut self.state.v);
+                // Each push starts near the last equilibrium; its tolerance is the step's (relative
+                // to the first solve's first residual), not a fraction of its own small start.
+                let reference = info.history.first().copied().unwrap_or(0.0);
+                if !more.converged
+                    && more.residual.is_finite()
+                    && more.residual <= self.params.newton_tolerance * reference
+                {
+                    more.converged = true;
+                    more.failure = None;
+                }
+                info.iterations += more.iterations;
+                info.cg_iterations += more.cg_iterations;
+                info.line_search_cuts += more.line_search_cuts;
+                info.residual = more.residual;
+                info.relative_residual = more.relative_residual;
+                info.converged = more.converged;
+                info.elastic_energy = more.elastic_energy;
+                info.failure = more.failure;
+            }
             stats.absorb(&info);
             if let Some(contact) = &self.newton.potential().contact {
                 stats.contacts = contact.active_pairs();
@@ -479,6 +514,9 @@ fn initial_ledger(body: &ElasticBody, boundary: &Boundary, free: &[Vec3], x: &[V
         reactions,
     }
 }
+
+/// Solves a step may take while moving obstacles push the body out of their way.
+const MAX_OBSTACLE_PUSHES: usize = 64;
 
 /// What to try when a frame fails, appended to the error.
 const ADVICE: &str = "Try more substeps or a smaller dt ([solver] substeps, dt), \

@@ -1726,3 +1726,81 @@ fn block_on_a_slope_sticks_or_slides_by_coulombs_law() {
         "slide: a = {a} m/s², expected {expected}"
     );
 }
+
+/// Contact I: a rigid plate (a box obstacle with a scripted motion) presses a block onto the
+/// ground to 70 % of its height; nothing ever passes through the plate or the ground.
+#[test]
+fn moving_plate_presses_a_block_without_passing_through_it() {
+    use tetsim::boundary::Motion;
+    use tetsim::contact::obstacle::{Obstacle, Shape};
+    use tetsim::contact::{ContactSetup, ObstacleSpec};
+    let scene = Scene::parse(
+        r#"
+        gravity = [0.0, 0.0, 0.0]
+        [mesh]
+        generator = { box = { min = [0, 1e-4, 0], max = [0.2, 0.2001, 0.2], cells = [4, 4, 4] } }
+        [material]
+        youngs_modulus = 1e5
+        density = 1000
+        [solver]
+        dt = 0.02
+        frames = 30
+        rayleigh_mass = 5.0
+        "#,
+        "press.toml".as_ref(),
+        ".".as_ref(),
+    )
+    .unwrap();
+    let obstacle = |name: &str, shape, motion| ObstacleSpec {
+        name: name.into(),
+        obstacle: Obstacle::new(shape, motion).unwrap(),
+        friction: None,
+        duration: None,
+    };
+    let plate_bottom = 0.2003;
+    let push: f64 = std::env::var("PUSH").map(|s| s.parse().unwrap()).unwrap_or(0.06);
+    let setup = ContactSetup {
+        obstacles: vec![
+            obstacle(
+                "ground",
+                Shape::Plane {
+                    point: Vec3::zeros(),
+                    normal: Vec3::y(),
+                },
+                Motion::default(),
+            ),
+            obstacle(
+                "plate",
+                Shape::Box {
+                    min: Vec3::new(-0.1, plate_bottom, -0.1),
+                    max: Vec3::new(0.3, plate_bottom + 0.05, 0.3),
+                },
+                Motion {
+                    translate: Vec3::new(0.0, -push, 0.0),
+                    ..Default::default()
+                },
+            ),
+        ],
+        params: Default::default(),
+    };
+    let mut sim = Simulation::from_scene(&scene)
+        .unwrap()
+        .with_contact(setup)
+        .unwrap();
+    let frames = sim.params.frames as f64;
+    while !sim.is_finished() {
+        let stats = sim.step().unwrap();
+        assert!(stats.converged, "frame {}: {:?}", stats.frame, stats.failure);
+        let plate = plate_bottom - push * stats.frame as f64 / frames;
+        let (lo, hi) = sim
+            .state
+            .x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.y), hi.max(p.y)));
+        assert!(lo > 0.0, "frame {}: through the ground ({lo})", stats.frame);
+        assert!(hi < plate, "frame {}: through the plate ({hi} above {plate})", stats.frame);
+    }
+    let top = sim.state.x.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
+    let height = top - sim.state.x.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    assert!((height - (0.2 - push)).abs() < 2e-3, "pressed to {height} m");
+}

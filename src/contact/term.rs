@@ -78,6 +78,12 @@ pub struct ContactTerm {
     friction_energy: f64,
     dissipation: f64,
     barrier_pairs: usize,
+    /// The body's rest positions.
+    rest: Vec<Vec3>,
+    /// Ramp factors of the obstacles: at the step's start, now, and where the step ends.
+    ramp_start: Vec<f64>,
+    ramp_now: Vec<f64>,
+    ramp_target: Vec<f64>,
 }
 
 /// One pair's lagged friction: slots of body vertices (Some) or obstacle points (None, moving by
@@ -120,6 +126,10 @@ impl ContactTerm {
             friction_energy: 0.0,
             dissipation: 0.0,
             barrier_pairs: 0,
+            rest: mesh.positions.clone(),
+            ramp_start: Vec::new(),
+            ramp_now: Vec::new(),
+            ramp_target: Vec::new(),
         };
         term.place(|_| 0.0);
         term
@@ -140,10 +150,14 @@ impl ContactTerm {
     /// quasistatic).
     pub fn begin_step(&mut self, xn: &[Vec3], h: f64, ramp: impl Fn(Option<f64>) -> f64) {
         let start = std::mem::take(&mut self.placed);
+        self.ramp_start.clone_from(&self.ramp_now);
         self.place(ramp);
+        self.ramp_target.clone_from(&self.ramp_now);
         self.friction_eps = 1e-3 * self.bbox_diagonal * h;
         self.lag_friction(xn, &start);
         self.lagged.copy_from_slice(xn);
+        // The step's solves start with the obstacles where they were: see `advance_obstacles`.
+        self.place_at(&self.ramp_start.clone());
         if let Some(d) = self.min_distance {
             let d2 = d * d;
             self.kappa = super::barrier::update_barrier_stiffness(
@@ -311,19 +325,113 @@ impl ContactTerm {
     }
 
     fn place(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
+        // A still obstacle stays at ramp 0: it never has anywhere to go.
+        let ramps: Vec<f64> = self
+            .setup
+            .obstacles
+            .iter()
+            .map(|o| {
+                let still = o.obstacle.motion.translate == Vec3::zeros()
+                    && o.obstacle.motion.rotate_degrees == 0.0;
+                if still { 0.0 } else { ramp(o.duration) }
+            })
+            .collect();
+        self.place_at(&ramps);
+    }
+
+    /// Put every obstacle at its ramp factor.
+    fn place_at(&mut self, ramps: &[f64]) {
         self.placed = self
             .setup
             .obstacles
             .iter()
-            .map(|spec| {
-                let s = ramp(spec.duration);
-                Placed {
-                    positions: spec.obstacle.positions_at(s),
-                    plane: spec.obstacle.plane_at(s),
-                    sphere: spec.obstacle.sphere_at(s),
-                }
+            .zip(ramps)
+            .map(|(spec, &s)| Placed {
+                positions: spec.obstacle.positions_at(s),
+                plane: spec.obstacle.plane_at(s),
+                sphere: spec.obstacle.sphere_at(s),
             })
             .collect();
+        self.ramp_now = ramps.to_vec();
+    }
+
+    /// Whether every obstacle is where the step ends.
+    pub fn obstacles_arrived(&self) -> bool {
+        self.ramp_now == self.ramp_target
+    }
+
+    /// Move the obstacles from where they are towards where the step ends, as far as continuous
+    /// collision detection against the body at x (held still) allows, and return the fraction
+    /// of the remaining move made. A moving obstacle pushes the body this way: Newton solves
+    /// with the obstacles part of the way, the barrier moves the body out of their path, and the
+    /// next call moves them on (IPC's kinematic obstacles without a penalty on their DOFs).
+    pub fn advance_obstacles(&mut self, x: &[Vec3]) -> f64 {
+        if self.obstacles_arrived() {
+            return 1.0;
+        }
+        let from = std::mem::take(&mut self.placed);
+        let from_ramps = self.ramp_now.clone();
+        let target = self.ramp_target.clone();
+        self.place_at(&target);
+        let params = CcdParams::default();
+        let surface = &self.surface;
+        let mut t = 1.0f64;
+        for ((spec, a), b) in self.setup.obstacles.iter().zip(&from).zip(&self.placed) {
+            let toi = match (&spec.obstacle.shape, a.plane, b.plane, a.sphere, b.sphere) {
+                (Shape::Plane { .. }, Some((o0, n)), Some((o1, _)), _, _) => surface
+                    .vertices
+                    .par_iter()
+                    .map(|&v| point_plane_ccd(&x[v], &x[v], &o0, &o1, &n, &params))
+                    .reduce(|| 1.0, f64::min),
+                (Shape::Sphere { .. }, _, _, Some((c0, r)), Some((c1, _))) => surface
+                    .faces
+                    .par_iter()
+                    .map(|f| {
+                        let face = f.map(|v| x[v]);
+                        sphere_triangle_ccd(&c0, &c1, r, &face, &face, &params)
+                    })
+                    .reduce(|| 1.0, f64::min),
+                _ => {
+                    let os = spec.obstacle.contact_surface();
+                    let (y0, y1) = (&a.positions, &b.positions);
+                    let c = cross_candidates(&surface.primitives(x, x), &os.primitives(y0, y1), 0.0);
+                    let pt = c.point_triangle.par_iter().map(|&[v, f]| {
+                        let p = x[surface.vertices[v]];
+                        let (s, e) = (os.faces[f].map(|i| y0[i]), os.faces[f].map(|i| y1[i]));
+                        point_triangle_ccd(&[p, s[0], s[1], s[2]], &[p, e[0], e[1], e[2]], &params)
+                    });
+                    let tp = c.triangle_point.par_iter().map(|&[f, v]| {
+                        let i = os.vertices[v];
+                        let face = surface.faces[f].map(|k| x[k]);
+                        point_triangle_ccd(
+                            &[y0[i], face[0], face[1], face[2]],
+                            &[y1[i], face[0], face[1], face[2]],
+                            &params,
+                        )
+                    });
+                    let ee = c.edge_edge.par_iter().map(|&[ea, eb]| {
+                        let [a0, a1] = surface.edges[ea];
+                        let [b0, b1] = os.edges[eb];
+                        edge_edge_ccd(
+                            &[x[a0], x[a1], y0[b0], y0[b1]],
+                            &[x[a0], x[a1], y1[b0], y1[b1]],
+                            &params,
+                        )
+                    });
+                    pt.chain(tp).chain(ee).reduce(|| 1.0, f64::min)
+                }
+            };
+            t = t.min(toi);
+        }
+        if t < 1.0 {
+            let ramps: Vec<f64> = from_ramps
+                .iter()
+                .zip(&target)
+                .map(|(a, b)| a + t * (b - a))
+                .collect();
+            self.place_at(&ramps);
+        }
+        t
     }
 
     /// Why the body at x passes through an obstacle (naming the obstacle and a body vertex),
@@ -491,7 +599,7 @@ impl ContactTerm {
                         if distance >= dhat {
                             return (distance.sqrt(), None);
                         }
-                        let rest = &self.surface_rest_edge(ea, x);
+                        let rest = &self.surface_rest_edge(ea);
                         let eps_x = edge_edge_mollifier_threshold(
                             &rest[0],
                             &rest[1],
@@ -513,12 +621,11 @@ impl ContactTerm {
         (pairs, min_d.is_finite().then_some(min_d))
     }
 
-    /// The rest positions of a body surface edge (for the mollifier's threshold). The body's
-    /// rest shape is not kept here: the current edge stands in (ε_x only sets where the
-    /// mollifier starts acting on nearly parallel edges).
-    fn surface_rest_edge(&self, e: usize, x: &[Vec3]) -> [Vec3; 2] {
+    /// The rest positions of a body surface edge (the mollifier's threshold ε_x is a constant
+    /// of the rest shape, so that the energy's gradient is the barrier's).
+    fn surface_rest_edge(&self, e: usize) -> [Vec3; 2] {
         let [a, b] = self.surface.edges[e];
-        [x[a], x[b]]
+        [self.rest[a], self.rest[b]]
     }
 
     /// The largest fraction t ∈ (0, 1] of the move from x to x + dx that passes through no
@@ -754,4 +861,82 @@ fn plane_basis(n: &Vec3) -> nalgebra::Matrix3x2<f64> {
     let t1 = n.cross(&a).normalize();
     let t2 = n.cross(&t1);
     nalgebra::Matrix3x2::from_columns(&[t1, t2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::boundary::Motion;
+    use crate::contact::obstacle::Obstacle;
+    use crate::contact::ObstacleSpec;
+    use crate::integrator::{SolverParams, StepKind};
+    use crate::mesh::generate::box_mesh;
+
+    /// Energy → force and force → Hessian of the contact term against each obstacle shape, by
+    /// central differences, at a state where a block sits inside d̂ of the obstacle.
+    #[test]
+    fn contact_term_derivatives_match_finite_differences_for_every_shape() {
+        let mesh = box_mesh(Vec3::new(0.0, 1e-4, 0.0), Vec3::new(0.2, 0.2001, 0.2), [2, 2, 2]);
+        let n = mesh.positions.len();
+        let masses = vec![1.0; n];
+        let shapes = [
+            Shape::Plane { point: Vec3::zeros(), normal: Vec3::y() },
+            Shape::Box { min: Vec3::new(-0.05, -0.1, -0.05), max: Vec3::new(0.25, 0.0, 0.25) },
+            Shape::Box { min: Vec3::new(0.03, -0.1, 0.04), max: Vec3::new(0.15, 0.0, 0.13) },
+            Shape::Sphere { center: Vec3::new(0.1, -0.5, 0.1), radius: 0.4999 },
+        ];
+        for shape in shapes {
+            let setup = ContactSetup {
+                obstacles: vec![ObstacleSpec {
+                    name: "o".into(),
+                    obstacle: Obstacle::new(shape.clone(), Motion::default()).unwrap(),
+                    friction: None,
+                    duration: None,
+                }],
+                params: Default::default(),
+            };
+            let mut term = ContactTerm::new(setup, &mesh, &masses);
+            term.kappa = 1.0;
+            // A small jitter so that no pair sits at a classification boundary.
+            let x: Vec<Vec3> = mesh
+                .positions
+                .iter()
+                .enumerate()
+                .map(|(i, p)| p + Vec3::new(1e-3 * (i as f64).sin(), 2e-5 * (i as f64).cos().abs(), 1e-3 * (i as f64 * 0.7).cos()))
+                .collect();
+            let params = SolverParams::default();
+            let body = crate::elastic::ElasticBody::new(mesh.clone(), crate::Model::new(crate::ModelKind::NeoHookean, crate::Lame::from_young_poisson(1e5, 0.3)), 1000.0).unwrap();
+            let zeros = vec![Vec3::zeros(); n];
+            let ctx = StepContext { body: &body, kind: StepKind::Static, f_ext: &zeros, free: &zeros, params: &params };
+            let mut partials = vec![0.0; 8];
+            let mut eval = |term: &mut ContactTerm, y: &[Vec3]| {
+                let mut f = vec![Vec3::zeros(); n];
+                let e = term.evaluate(&ctx, y, &zeros, &mut f, &mut partials);
+                (e, f)
+            };
+            let (_, f) = eval(&mut term, &x);
+            assert!(term.active_pairs() > 0, "{shape:?}: no pairs");
+            let u: Vec<Vec3> = (0..n).map(|i| Vec3::new((i as f64 * 1.3).sin(), (i as f64 * 0.9).cos(), (i as f64 * 2.1).sin())).collect();
+            let slope: f64 = -f.iter().zip(&u).map(|(f, u)| f.dot(u)).sum::<f64>();
+            let mut hu = vec![Vec3::zeros(); n];
+            term.use_exact(true);
+            term.add_hessian_product(&ctx, &u, &mut hu);
+            let mut best_e = f64::INFINITY;
+            let mut best_h = f64::INFINITY;
+            for k in 4..12 {
+                let t = 10f64.powi(-k);
+                let plus: Vec<Vec3> = x.iter().zip(&u).map(|(x, u)| x + t * u).collect();
+                let minus: Vec<Vec3> = x.iter().zip(&u).map(|(x, u)| x - t * u).collect();
+                let (ep, fp) = eval(&mut term, &plus);
+                let (em, fm) = eval(&mut term, &minus);
+                let fd = (ep - em) / (2.0 * t);
+                best_e = best_e.min((fd - slope).abs() / slope.abs().max(1e-30));
+                let err: f64 = (0..n).map(|i| ((fm[i] - fp[i]) / (2.0 * t) - hu[i]).norm_squared()).sum::<f64>().sqrt();
+                let norm: f64 = hu.iter().map(|v| v.norm_squared()).sum::<f64>().sqrt();
+                best_h = best_h.min(err / norm.max(1e-30));
+            }
+            assert!(best_e < 1e-5, "{shape:?}: energy → force error {best_e:e}");
+            assert!(best_h < 1e-4, "{shape:?}: force → Hessian error {best_h:e}");
+        }
+    }
 }
