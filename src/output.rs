@@ -340,7 +340,10 @@ impl Recorder {
             &points,
             &out.surface.triangles,
             &[],
-            &[("obstacle", Field::Scalar(&index))],
+            &[
+                ("obstacle", Field::Scalar(&index)),
+                ("shape", Field::Scalar(&out.surface.shape)),
+            ],
         )?;
         files.push((name.clone(), crate::manifest::sha256_file(&path)?));
         out.pvd.push((sim.state.t, name));

@@ -29,6 +29,8 @@ pub struct DisplaySurface {
     pub triangles: Vec<[usize; 3]>,
     /// The obstacle index of each triangle.
     pub obstacle: Vec<usize>,
+    /// The shape of each triangle's obstacle: [`shape_code`].
+    pub shape: Vec<f64>,
     /// Which obstacle each position belongs to.
     vertex_obstacle: Vec<usize>,
 }
@@ -41,6 +43,7 @@ impl DisplaySurface {
             positions: Vec::new(),
             triangles: Vec::new(),
             obstacle: Vec::new(),
+            shape: Vec::new(),
             vertex_obstacle: Vec::new(),
         };
         for (k, spec) in setup.obstacles.iter().enumerate() {
@@ -51,6 +54,8 @@ impl DisplaySurface {
             out.triangles
                 .extend(triangles.iter().map(|t| t.map(|v| v + base)));
             out.obstacle.extend(triangles.iter().map(|_| k));
+            let code = shape_code(&spec.obstacle.shape);
+            out.shape.extend(triangles.iter().map(|_| code));
         }
         out
     }
@@ -62,6 +67,17 @@ impl DisplaySurface {
             .zip(&self.vertex_obstacle)
             .map(|(x, &k)| setup.obstacles[k].obstacle.motion.apply(ramps[k], x))
             .collect()
+    }
+}
+
+/// The `shape` cell data of `obstacles_NNNN.vtu`: 0 plane, 1 box, 2 sphere, 3 mesh (so that
+/// `tetsim render` finds the ground plane again).
+pub fn shape_code(shape: &Shape) -> f64 {
+    match shape {
+        Shape::Plane { .. } => 0.0,
+        Shape::Box { .. } => 1.0,
+        Shape::Sphere { .. } => 2.0,
+        Shape::Mesh(_) => 3.0,
     }
 }
 
