@@ -60,6 +60,11 @@ pub fn input_hashes(scene: &Scene) -> Result<Value> {
     if let Some(file) = &scene.initial.positions {
         add("initial_positions", file)?;
     }
+    for (i, obstacle) in scene.obstacle.iter().enumerate() {
+        if let Some(file) = &obstacle.mesh {
+            add(&format!("obstacle_{}_mesh", i + 1), file)?;
+        }
+    }
     Ok(Value::Object(inputs))
 }
 

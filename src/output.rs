@@ -1,14 +1,23 @@
-//! The on-disk contract (SPEC §8, §10): `frame_NNNN.vtu`, `frames.pvd`, `surface_NNNN.obj` and
-//! `steps.csv` in the output folder, every file written atomically (temp + rename) so that an
-//! interrupted run leaves valid files behind.
+//! The on-disk contract (SPEC §8, §10, §11): `frame_NNNN.vtu`, `frames.pvd`, `surface_NNNN.obj`
+//! and `steps.csv` in the output folder, every file written atomically (temp + rename) so that
+//! an interrupted run leaves valid files behind.
+//!
+//! With contact on (SPEC §11), frames gain point data `contact_force`, steps.csv the columns of
+//! [`CONTACT_COLUMNS`] after all others, and the obstacles go to `obstacles_NNNN.vtu` (every
+//! frame when one moves, else frame 0 only) and `obstacles.pvd`. Without contact none of these
+//! appear: the contact columns are left out rather than written empty, so that a scene without
+//! contact writes the same bytes as before contact existed.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use crate::contact::ContactSetup;
+use crate::contact::display::{DisplaySurface, moves, scene_box};
 use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
 use crate::integrator::StepStats;
 use crate::io::obj::write_obj;
+use crate::io::surface_vtu::write_surface_vtu;
 use crate::io::{Field, atomic_write, write_pvd, write_vtu};
 use crate::math::Vec3;
 use crate::sim::Simulation;
@@ -16,6 +25,11 @@ use crate::sim::Simulation;
 /// The steps.csv header. The first eleven columns are the SPEC §10 contract; columns after them
 /// are extensions (new ones are only ever appended).
 pub const STEPS_HEADER: &str = "frame,time,newton_iterations,cg_iterations,residual,converged,elastic_energy,kinetic_energy,min_J,inverted_elements,wall_seconds,relative_residual,substeps,line_search_cuts,cg_breakdowns,cg_capped,clamped_tets,gravitational_energy,load_work,boundary_work,damping_dissipation,numerical_dissipation,energy_tolerance";
+
+/// The steps.csv columns appended after [`STEPS_HEADER`]'s when contact is on: active contact
+/// pairs at the end of the frame, the smallest gap then (m; empty when None), the contact
+/// energy and the friction dissipated over the frame (J).
+pub const CONTACT_COLUMNS: &str = "contacts,min_distance,contact_energy,friction_dissipation";
 
 /// The header of timings.csv: wall-clock seconds per frame, split by phase (never deterministic,
 /// never hashed in the manifest).
@@ -47,6 +61,18 @@ pub struct Recorder {
     timings: String,
     frames: Vec<FrameFiles>,
     written: Vec<PathBuf>,
+    /// Set at the first frame: None without contact.
+    contact: Option<ContactOutput>,
+}
+
+/// What the recorder keeps when contact is on.
+struct ContactOutput {
+    /// The obstacles' triangles at rest.
+    surface: DisplaySurface,
+    /// Whether any obstacle moves (then every frame gets its obstacles file).
+    moving: bool,
+    /// `obstacles.pvd`'s entries.
+    pvd: Vec<(f64, String)>,
 }
 
 impl Recorder {
@@ -60,10 +86,12 @@ impl Recorder {
             surface_in_file_order: false,
             deterministic: false,
             pvd: Vec::new(),
-            csv: format!("{STEPS_HEADER}\n"),
+            // The header waits for the first frame, which says whether contact is on.
+            csv: String::new(),
             timings: format!("{TIMINGS_HEADER}\n"),
             frames: Vec::new(),
             written: Vec::new(),
+            contact: None,
         })
     }
 
@@ -122,16 +150,35 @@ impl Recorder {
             }
         }
         let displacement: Vec<Vec3> = x.iter().zip(&rest).map(|(x, rest)| x - rest).collect();
+        if self.csv.is_empty() {
+            self.start(sim);
+        }
+        let mut point_data = vec![
+            ("displacement", Field::Vector(&displacement)),
+            ("velocity", Field::Vector(&v)),
+            ("fixed", Field::Scalar(&fixed)),
+        ];
+        let contact_force = self.contact.as_ref().map(|_| {
+            let f = sim.contact_forces();
+            let f = if f.len() == x.len() {
+                f.to_vec()
+            } else {
+                vec![Vec3::zeros(); x.len()]
+            };
+            match sim.renumbering() {
+                Some(r) => r.vertices_to_old(&f),
+                None => f,
+            }
+        });
+        if let Some(f) = &contact_force {
+            point_data.push(("contact_force", Field::Vector(f)));
+        }
         let path = self.dir.join(&name);
         write_vtu(
             &path,
             &x,
             &tets,
-            &[
-                ("displacement", Field::Vector(&displacement)),
-                ("velocity", Field::Vector(&v)),
-                ("fixed", Field::Scalar(&fixed)),
-            ],
+            &point_data,
             &[
                 ("J", Field::Scalar(&j)),
                 ("strain_energy_density", Field::Scalar(&psi)),
@@ -146,6 +193,9 @@ impl Recorder {
             write_obj(&path, &x, &self.surface)?;
             files.push((obj, crate::manifest::sha256_file(&path)?));
             self.note(path);
+        }
+        if let Some(setup) = sim.contact_setup() {
+            self.write_obstacles(sim, setup, &mut files)?;
         }
         self.frames.push(FrameFiles {
             frame,
@@ -177,7 +227,7 @@ impl Recorder {
         if self.deterministic {
             csv_row.wall_seconds = 0.0;
         }
-        push_row(&mut self.csv, &csv_row);
+        push_row(&mut self.csv, &csv_row, self.contact.is_some());
         let path = self.dir.join("steps.csv");
         let csv = &self.csv;
         atomic_write(&path, |w| w.write_all(csv.as_bytes()))?;
@@ -221,7 +271,7 @@ impl Recorder {
             })
             .collect();
         let mut collected = serde_json::Map::new();
-        for name in ["frames.pvd", "steps.csv"] {
+        for name in ["frames.pvd", "steps.csv", "obstacles.pvd"] {
             let path = self.dir.join(name);
             if path.exists() {
                 collected.insert(name.into(), sha256_file(&path)?.into());
@@ -248,6 +298,62 @@ impl Recorder {
         Ok(())
     }
 
+    /// At the first frame: the steps.csv header, and with contact the obstacles at rest.
+    fn start(&mut self, sim: &Simulation) {
+        self.csv = format!("{STEPS_HEADER}\n");
+        if let Some(setup) = sim.contact_setup() {
+            self.csv = format!("{STEPS_HEADER},{CONTACT_COLUMNS}\n");
+            let scene = scene_box(sim.initial_positions(), setup);
+            self.contact = Some(ContactOutput {
+                surface: DisplaySurface::new(setup, scene),
+                moving: setup.obstacles.iter().any(|o| moves(&o.obstacle)),
+                pvd: Vec::new(),
+            });
+        }
+    }
+
+    /// `obstacles_NNNN.vtu` (every frame when an obstacle moves, else only the first) and
+    /// `obstacles.pvd`.
+    fn write_obstacles(
+        &mut self,
+        sim: &Simulation,
+        setup: &ContactSetup,
+        files: &mut Vec<(String, String)>,
+    ) -> Result<()> {
+        let Some(out) = &mut self.contact else {
+            return Ok(());
+        };
+        if !out.moving && !out.pvd.is_empty() {
+            return Ok(());
+        }
+        let ramps: Vec<f64> = setup
+            .obstacles
+            .iter()
+            .map(|o| sim.motion_ramp(o.duration))
+            .collect();
+        let points = out.surface.positions_at(setup, &ramps);
+        let index: Vec<f64> = out.surface.obstacle.iter().map(|&k| k as f64).collect();
+        let name = format!("obstacles_{:04}.vtu", sim.frame());
+        let path = self.dir.join(&name);
+        write_surface_vtu(
+            &path,
+            &points,
+            &out.surface.triangles,
+            &[],
+            &[
+                ("obstacle", Field::Scalar(&index)),
+                ("shape", Field::Scalar(&out.surface.shape)),
+            ],
+        )?;
+        files.push((name.clone(), crate::manifest::sha256_file(&path)?));
+        out.pvd.push((sim.state.t, name));
+        self.note(path);
+        let path = self.dir.join("obstacles.pvd");
+        write_pvd(&path, &self.contact.as_ref().expect("set above").pvd)?;
+        self.note(path);
+        Ok(())
+    }
+
     fn note(&mut self, path: PathBuf) {
         if !self.written.contains(&path) {
             self.written.push(path);
@@ -255,8 +361,8 @@ impl Recorder {
     }
 }
 
-/// One steps.csv row.
-fn push_row(csv: &mut String, s: &StepStats) {
+/// One steps.csv row (with the contact columns when `contact`).
+fn push_row(csv: &mut String, s: &StepStats, contact: bool) {
     let _ = writeln!(
         csv,
         "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
@@ -284,6 +390,17 @@ fn push_row(csv: &mut String, s: &StepStats) {
         num(s.energy.numerical_dissipation),
         num(s.energy.tolerance),
     );
+    if contact {
+        csv.pop();
+        let _ = writeln!(
+            csv,
+            ",{},{},{},{}",
+            s.contacts,
+            s.min_distance.map_or_else(String::new, num),
+            num(s.contact_energy),
+            num(s.friction_dissipation),
+        );
+    }
 }
 
 /// A number for CSV: plain for ordinary magnitudes, exponent form otherwise, always

@@ -325,6 +325,8 @@ fn run_writes_preview_and_animation() {
             time: 0.1 * k as f64,
             positions: x,
             field: v,
+            obstacles: &[],
+            ground: None,
         })
         .collect();
     let params = RunPictureParams {
@@ -824,4 +826,47 @@ fn progress_display_demo() {
         files.push(out.join(name));
     }
     println!("{}", display.finish(out, &files));
+}
+
+/// Obstacles (SPEC §11): a ground plane moves the floor to its own height, and an obstacle
+/// triangle beside the body is drawn (in the obstacle colour, not the body's).
+#[test]
+fn obstacles_are_drawn_and_a_ground_plane_is_the_floor() {
+    let mesh = box_mesh(Vec3::zeros(), Vec3::repeat(1.0), [1, 1, 1]);
+    let rm = RenderMesh::new(&mesh);
+    let params = RenderParams {
+        width: 80,
+        height: 60,
+        field: None,
+        ..RenderParams::default()
+    };
+    let camera = render::fit_camera(&Bounds::of(&mesh.positions), &params);
+    let view = SceneView {
+        mesh: &rm,
+        positions: &mesh.positions,
+        field: &[],
+        fixed: &[],
+        time: 0.0,
+        frame: 0,
+    };
+    let draw = |obstacles: &[[Vec3; 3]], params: &RenderParams| {
+        render::render_with_obstacles(&view, obstacles, &camera, params, (0.0, 1.0)).unwrap()
+    };
+    let plain = draw(&[], &params);
+    let far_floor = draw(
+        &[],
+        &RenderParams {
+            ground: Some(Plane::new(Vec3::new(0.0, -3.0, 0.0), Vec3::y())),
+            ..params.clone()
+        },
+    );
+    assert_ne!(plain.pixels, far_floor.pixels, "the ground moved nothing");
+    let wall = [[
+        Vec3::new(-3.0, -1.0, -1.0),
+        Vec3::new(4.0, -1.0, -1.0),
+        Vec3::new(0.5, 3.0, -1.0),
+    ]];
+    let with_wall = draw(&wall, &params);
+    assert_ne!(plain.pixels, with_wall.pixels, "the obstacle was not drawn");
+    assert!(render::ground_plane(&[Plane::new(Vec3::zeros(), Vec3::x())], Vec3::y()).is_none());
 }

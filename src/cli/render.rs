@@ -5,11 +5,14 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
+use tetsim::io::surface_vtu::read_surface_vtu;
 use tetsim::io::vtu::read_pvd;
 use tetsim::io::{FieldData, read_vtu_frame};
 use tetsim::math::Vec3;
 use tetsim::mesh::TetMesh;
-use tetsim::render::{self, FieldKind, RenderMesh, RenderParams, RunFrame, RunPictureParams};
+use tetsim::render::{
+    self, FieldKind, ObstacleView, RenderMesh, RenderParams, RunFrame, RunPictureParams,
+};
 
 /// Arguments of `tetsim render`.
 #[derive(Debug, clap::Args)]
@@ -55,6 +58,10 @@ pub struct RenderArgs {
     pub cut: Option<char>,
 }
 
+/// A frame kept for drawing: (frame, time, positions, field values, index into the obstacles
+/// read, `usize::MAX` for none).
+type Kept = (usize, f64, Vec<Vec3>, Vec<f64>, usize);
+
 pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(args.stride > 0, "--stride must be at least 1");
     let pvd = args.dir.join("frames.pvd");
@@ -66,7 +73,9 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         name => Some(name.parse::<FieldKind>()?),
     };
     let mut mesh: Option<(RenderMesh, Vec<bool>)> = None;
-    let mut kept: Vec<(usize, f64, Vec<Vec3>, Vec<f64>)> = Vec::new();
+    let obstacle_files = obstacle_files(&args.dir)?;
+    let mut obstacles: Vec<(String, ObstacleView)> = Vec::new();
+    let mut kept: Vec<Kept> = Vec::new();
     for (index, (time, file)) in entries.iter().enumerate().take(last + 1).skip(first) {
         if (index - first) % args.stride != 0 && index != last {
             continue;
@@ -84,16 +93,32 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
                 .collect(),
             Some(kind) => scalars(&path, &frame.cell_data, cell_array(kind))?.to_vec(),
         };
-        kept.push((index, *time, frame.points, values));
+        // The obstacles file of this frame: the last one written at or before its time.
+        let view = match obstacle_files.iter().rev().find(|o| o.0 <= *time) {
+            None => usize::MAX,
+            Some((_, file)) => match obstacles.iter().position(|o| &o.0 == file) {
+                Some(k) => k,
+                None => {
+                    obstacles.push((file.clone(), read_obstacles(&args.dir.join(file))?));
+                    obstacles.len() - 1
+                }
+            },
+        };
+        kept.push((index, *time, frame.points, values, view));
     }
     let (mesh, fixed) = mesh.context("no frame in the range")?;
     let frames: Vec<RunFrame<'_>> = kept
         .iter()
-        .map(|(frame, time, positions, field)| RunFrame {
-            frame: *frame,
-            time: *time,
-            positions,
-            field,
+        .map(|(frame, time, positions, field, view)| {
+            let view = obstacles.get(*view).map(|o| &o.1);
+            RunFrame {
+                frame: *frame,
+                time: *time,
+                positions,
+                field,
+                obstacles: view.map_or(&[], |v| &v.triangles),
+                ground: view.and_then(|v| v.ground),
+            }
         })
         .collect();
     let step = if kept.len() > 1 {
@@ -142,6 +167,37 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The entries of the run's `obstacles.pvd` (none when the run had no contact).
+fn obstacle_files(dir: &Path) -> anyhow::Result<Vec<(f64, String)>> {
+    let pvd = dir.join("obstacles.pvd");
+    if !pvd.exists() {
+        return Ok(Vec::new());
+    }
+    Ok(read_pvd(&pvd)?)
+}
+
+/// An `obstacles_NNNN.vtu` read back and split into the ground and the other obstacles.
+fn read_obstacles(path: &Path) -> anyhow::Result<ObstacleView> {
+    let surface = read_surface_vtu(path)?;
+    let per_triangle = |name: &str| match surface.cell_field(name) {
+        Some(FieldData::Scalar(v)) if v.len() == surface.triangles.len() => Some(v.clone()),
+        _ => None,
+    };
+    let n = surface.triangles.len();
+    let obstacle = per_triangle("obstacle")
+        .map_or_else(|| vec![0; n], |v| v.iter().map(|&k| k as usize).collect());
+    // Without `shape` (another writer), nothing is taken for the ground.
+    let is_plane: Vec<bool> = per_triangle("shape")
+        .map_or_else(|| vec![false; n], |v| v.iter().map(|&s| s == 0.0).collect());
+    Ok(ObstacleView::new(
+        &surface.points,
+        &surface.triangles,
+        &obstacle,
+        &is_plane,
+        RenderParams::default().up,
+    ))
 }
 
 /// The VTU cell array holding a field.

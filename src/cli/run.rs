@@ -4,11 +4,14 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use tetsim::contact::display::{DisplaySurface, scene_box};
 use tetsim::diagnose::{RunSummary, plausibility_warnings};
 use tetsim::math::Vec3;
 use tetsim::output::Recorder;
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
-use tetsim::render::{self, FieldKind, RenderMesh, RenderParams, RunFrame, RunPictureParams};
+use tetsim::render::{
+    self, FieldKind, ObstacleView, RenderMesh, RenderParams, RunFrame, RunPictureParams,
+};
 use tetsim::{Scene, Simulation};
 
 /// Arguments of `tetsim run`.
@@ -34,8 +37,8 @@ pub struct RunArgs {
     pub deterministic: bool,
 }
 
-/// Frames kept in memory for the pictures: (frame, time, positions, field values).
-type Kept = Vec<(usize, f64, Vec<Vec3>, Vec<f64>)>;
+/// Frames kept in memory for the pictures: (frame, time, positions, field values, obstacles).
+type Kept = Vec<(usize, f64, Vec<Vec3>, Vec<f64>, ObstacleView)>;
 
 pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let mut scene = match &args.scene {
@@ -68,12 +71,30 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         name => Some(name.parse::<FieldKind>()?),
     };
     let mut kept: Kept = Vec::new();
+    let obstacles = sim.contact_setup().map(|setup| {
+        let surface = DisplaySurface::new(setup, scene_box(sim.initial_positions(), setup));
+        let is_plane: Vec<bool> = surface.shape.iter().map(|&s| s == 0.0).collect();
+        (surface, is_plane)
+    });
+    let up = RenderParams::default().up;
     let keep = |sim: &Simulation, kept: &mut Kept| {
         if scene.output.pictures {
             let values = field.map_or_else(Vec::new, |kind| {
                 render::field_values(kind, &sim.body, &sim.state.x)
             });
-            kept.push((sim.frame(), sim.state.t, sim.state.x.clone(), values));
+            let view = match (&obstacles, sim.contact_setup()) {
+                (Some((surface, is_plane)), Some(setup)) => {
+                    let ramps: Vec<f64> = setup
+                        .obstacles
+                        .iter()
+                        .map(|o| sim.motion_ramp(o.duration))
+                        .collect();
+                    let points = surface.positions_at(setup, &ramps);
+                    ObstacleView::new(&points, &surface.triangles, &surface.obstacle, is_plane, up)
+                }
+                _ => ObstacleView::default(),
+            };
+            kept.push((sim.frame(), sim.state.t, sim.state.x.clone(), values, view));
         }
     };
     keep(&sim, &mut kept);
@@ -178,11 +199,13 @@ fn draw(
     let fixed: Vec<bool> = sim.free_mask().iter().map(|m| m.sum() < 3.0).collect();
     let frames: Vec<RunFrame<'_>> = kept
         .iter()
-        .map(|(frame, time, positions, values)| RunFrame {
+        .map(|(frame, time, positions, values, obstacles)| RunFrame {
             frame: *frame,
             time: *time,
             positions,
             field: values,
+            obstacles: &obstacles.triangles,
+            ground: obstacles.ground,
         })
         .collect();
     let o = &scene.output;

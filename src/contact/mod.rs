@@ -24,6 +24,7 @@
 //! - [`broad`]: a bounding volume hierarchy giving candidate pairs, deterministic and parallel.
 //! - [`surface`]: the contact surface (vertices, edges, faces) of a tet mesh.
 //! - [`obstacle`]: rigid obstacles (plane, box, sphere, triangle mesh) with scripted motion.
+//! - [`display`]: the obstacles as triangles for the output files and the pictures.
 //! - [`friction`]: tangent bases, relative tangential displacement, the smoothed friction
 //!   potential with its gradient and PSD Hessian.
 //!
@@ -36,6 +37,7 @@
 pub mod barrier;
 pub mod broad;
 pub mod ccd;
+pub mod display;
 pub mod distance;
 pub mod friction;
 pub mod obstacle;

@@ -19,6 +19,7 @@ pub mod gmsh;
 pub mod medit;
 pub mod obj;
 pub mod stl;
+pub mod surface_vtu;
 pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;

@@ -350,17 +350,17 @@ fn field(values: Vec<Value>, components: usize) -> FieldData {
     }
 }
 
-/// Everything in a VTU file: points, raw cells, data arrays.
-struct Grid {
-    points: Vec<Vec3>,
-    offsets: Vec<i64>,
-    connectivity: Vec<i64>,
-    types: Vec<i64>,
-    point_data: Vec<(String, FieldData)>,
-    cell_data: Vec<(String, FieldData)>,
+/// Everything in a VTU file: points, raw cells (`offsets` starts with 0), data arrays.
+pub(super) struct Grid {
+    pub points: Vec<Vec3>,
+    pub offsets: Vec<i64>,
+    pub connectivity: Vec<i64>,
+    pub types: Vec<i64>,
+    pub point_data: Vec<(String, FieldData)>,
+    pub cell_data: Vec<(String, FieldData)>,
 }
 
-fn parse_grid(path: &Path) -> Result<Grid> {
+pub(super) fn parse_grid(path: &Path) -> Result<Grid> {
     let data = read_bytes(path)?;
     let (root, appended) = xml::parse(path, &data)?;
     let err = |line: usize, m: String| Error::parse(path, Some(line), m);
@@ -625,6 +625,27 @@ pub fn write_vtu_with(
     cell_data: &[(&str, Field)],
     options: VtuOptions,
 ) -> Result<()> {
+    write_cells(
+        path,
+        points,
+        tets,
+        VTK_TETRA as u8,
+        point_data,
+        cell_data,
+        options,
+    )
+}
+
+/// A VTU file of cells of one VTK type with `N` nodes each (tets, triangles).
+pub(super) fn write_cells<const N: usize>(
+    path: &Path,
+    points: &[Vec3],
+    tets: &[[usize; N]],
+    cell_type: u8,
+    point_data: &[(&str, Field)],
+    cell_data: &[(&str, Field)],
+    options: VtuOptions,
+) -> Result<()> {
     for (what, data, n) in [
         ("point", point_data, points.len()),
         ("cell", cell_data, tets.len()),
@@ -668,7 +689,7 @@ pub fn write_vtu_with(
         .flat_map(|&v| (v as i64).to_le_bytes())
         .collect();
     let offs: Vec<u8> = (1..=tets.len() as i64)
-        .flat_map(|k| (4 * k).to_le_bytes())
+        .flat_map(|k| (N as i64 * k).to_le_bytes())
         .collect();
     arrays.push(("Cells", "connectivity".into(), "Int64", 1, conn));
     arrays.push(("Cells", "offsets".into(), "Int64", 1, offs));
@@ -677,7 +698,7 @@ pub fn write_vtu_with(
         "types".into(),
         "UInt8",
         1,
-        vec![VTK_TETRA as u8; tets.len()],
+        vec![cell_type; tets.len()],
     ));
     let payloads: Vec<Vec<u8>> = arrays.iter().map(|a| payload(&a.4, options.zlib)).collect();
     atomic_write(path, |w| {

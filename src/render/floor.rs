@@ -2,6 +2,7 @@
 //! (so sizes can be read off), a soft contact shadow (so the model sits somewhere), fading out
 //! with distance into the background.
 
+use super::Plane;
 use super::camera::Camera;
 use super::geometry::Tri;
 use super::raster::{box_coverage, lin, mix, smoothstep};
@@ -156,14 +157,19 @@ pub(crate) struct Floor {
 }
 
 impl Floor {
-    pub(crate) fn new(camera: &Camera, tris: &[Tri]) -> Option<Floor> {
-        let up = camera.world_up;
+    /// The floor under the camera's bounds, or on `ground` (a ground plane obstacle, normal
+    /// to the free side) at its place and in its orientation.
+    pub(crate) fn new(camera: &Camera, tris: &[Tri], ground: Option<&Plane>) -> Option<Floor> {
+        let up = match ground {
+            Some(g) => g.normal.try_normalize(1e-300)?,
+            None => camera.world_up,
+        };
         let (h1, h2) = Camera::floor_axes(&up);
         let corners = camera.bounds.corners();
         let along = |v: &Vec3| corners.map(|c| c.dot(v)).into_iter();
         let min = |v: &Vec3| along(v).fold(f64::INFINITY, f64::min);
         let max = |v: &Vec3| along(v).fold(f64::NEG_INFINITY, f64::max);
-        let height = min(&up);
+        let height = ground.map_or_else(|| min(&up), |g| g.point.dot(&up));
         let eye_height = camera.eye.dot(&up) - height;
         if eye_height.is_nan() || eye_height <= 0.0 {
             return None;

@@ -135,6 +135,28 @@ pub(crate) struct Tri {
     pub features: u8,
     /// Part of the cut face of a clipping plane.
     pub cap: bool,
+    /// Part of a rigid obstacle (drawn in its own plain colour, never by the field).
+    pub obstacle: bool,
+}
+
+/// Obstacle triangles (world coordinates) to draw beside the body: flat-shaded, in the obstacle
+/// colour, outlined at their creases like the body.
+pub(crate) fn obstacle_triangles(obstacles: &[[Vec3; 3]]) -> Vec<Tri> {
+    obstacles
+        .iter()
+        .filter_map(|p| {
+            let n = (p[1] - p[0]).cross(&(p[2] - p[0])).try_normalize(1e-300)?;
+            Some(Tri {
+                p: *p,
+                n: [n; 3],
+                value: [f64::NAN; 3],
+                edges: 0b111,
+                features: 0,
+                cap: false,
+                obstacle: true,
+            })
+        })
+        .collect()
 }
 
 /// A polygon corner during clipping.
@@ -255,6 +277,7 @@ pub(crate) fn build_triangles(view: &SceneView<'_>, params: &RenderParams) -> Ve
                     .map(|(k, c)| (c.feature_after as u8) << k)
                     .sum(),
                 cap: false,
+                obstacle: false,
             });
         } else if d.iter().any(|&d| d <= 0.0) {
             let poly = clip_polygon(&corners, &d);
@@ -354,6 +377,7 @@ fn push_fan(tris: &mut Vec<Tri>, poly: &[Corner], cap: bool) {
             edges,
             features,
             cap,
+            obstacle: false,
         });
     }
 }

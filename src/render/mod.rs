@@ -11,7 +11,9 @@
 //!    z-buffer, shades every sample (key and fill light, hemisphere ambient, wireframe edges),
 //!    draws a floor with a grid and a soft contact shadow behind the object, filters down to the
 //!    output size and draws the overlays: fixed-vertex markers, the colour bar with its label,
-//!    units and ticks, and a caption (frame, time).
+//!    units and ticks, and a caption (frame, time). [`render_with_obstacles`] adds rigid
+//!    obstacles as shaded surfaces, and [`RenderParams::ground`] puts the floor on a ground
+//!    plane obstacle ([`ObstacleView`] picks it).
 //! 4. [`Image::write_png`] and [`write_gif`] write the results atomically (temp file + rename).
 //!
 //! [`render_run`] does all of this for a run: `preview.png` (the last frame) and
@@ -28,6 +30,7 @@ mod colormap;
 mod floor;
 mod geometry;
 mod image;
+mod obstacles;
 pub mod plot;
 mod raster;
 mod run;
@@ -47,6 +50,7 @@ pub use crate::field::{
 };
 pub use geometry::RenderMesh;
 pub use image::Image;
+pub use obstacles::ObstacleView;
 pub use plot::plot_steps;
 pub use run::{RunFrame, RunPictureParams, gif_delay_cs, render_run};
 
@@ -122,6 +126,9 @@ pub struct RenderParams {
     /// A floor under the whole run's bounding box, with a metric grid and a soft contact
     /// shadow. Default true.
     pub show_floor: bool,
+    /// A ground plane (a plane obstacle): the floor is drawn there, in its orientation, instead
+    /// of under the bounding box; `normal` points to the free side. Default none.
+    pub ground: Option<Plane>,
     /// Mark fixed (Dirichlet) vertices with red dots. Default true.
     pub show_fixed: bool,
     /// A caption line at the top: the title, frame number and time. Default true.
@@ -146,6 +153,7 @@ impl Default for RenderParams {
             outline: true,
             clip: None,
             show_floor: true,
+            ground: None,
             show_fixed: true,
             show_caption: true,
             title: String::new(),
@@ -186,6 +194,19 @@ impl RenderParams {
         }
         if !(self.up.norm() > 0.0 && self.up.iter().all(|c| c.is_finite())) {
             return bad("render.up", "must be a finite, non-zero vector".into());
+        }
+        if let Some(plane) = &self.ground
+            && !(plane.normal.norm() > 0.0
+                && plane
+                    .normal
+                    .iter()
+                    .chain(plane.point.iter())
+                    .all(|c| c.is_finite()))
+        {
+            return bad(
+                "render.ground",
+                "the plane needs a finite point and a non-zero normal".into(),
+            );
         }
         if let Some(plane) = &self.clip
             && !(plane.normal.norm() > 0.0
@@ -271,14 +292,45 @@ pub fn render(
     params: &RenderParams,
     field_range: (f64, f64),
 ) -> Result<Image> {
+    render_with_obstacles(view, &[], camera, params, field_range)
+}
+
+/// [`render`] with rigid obstacles drawn beside the body as shaded surfaces: `obstacles` are
+/// their triangles in world coordinates (a ground plane goes to [`RenderParams::ground`]
+/// instead, to be drawn as the floor).
+pub fn render_with_obstacles(
+    view: &SceneView<'_>,
+    obstacles: &[[Vec3; 3]],
+    camera: &Camera,
+    params: &RenderParams,
+    field_range: (f64, f64),
+) -> Result<Image> {
     params.validate()?;
     view.validate(params)?;
     Ok(raster::render_frame(
         view,
+        obstacles,
         camera,
         params,
         sanitize_range(field_range),
     ))
+}
+
+/// Which of `planes` (point, normal towards the free side) is the ground: the one whose normal
+/// is closest to `up`, if it is within 60° of it (a wall is not a floor). Ties: the first.
+pub fn ground_plane(planes: &[Plane], up: Vec3) -> Option<usize> {
+    let up = up.try_normalize(1e-300)?;
+    let mut best: Option<(usize, f64)> = None;
+    for (i, p) in planes.iter().enumerate() {
+        let Some(n) = p.normal.try_normalize(1e-300) else {
+            continue;
+        };
+        let c = n.dot(&up);
+        if c > 0.5 && best.is_none_or(|(_, b)| c > b) {
+            best = Some((i, c));
+        }
+    }
+    best.map(|(i, _)| i)
 }
 
 /// A usable colour range: finite, ordered and of non-zero width (a constant field shows the

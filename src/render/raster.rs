@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::camera::Camera;
 use super::colormap::{LinearViridis, SrgbEncoder, srgb_to_linear};
 use super::floor::Floor;
-use super::geometry::{Tri, build_triangles};
+use super::geometry::{Tri, build_triangles, obstacle_triangles};
 use super::image::Image;
 use super::text::{self, Align, INK, MARKER_EDGE, MARKER_FILL};
 use super::{RenderParams, SceneView, Shading};
@@ -25,6 +25,8 @@ const BAND: usize = 16;
 const PLAIN: [u8; 3] = [142, 170, 204];
 const CAP_PLAIN: [u8; 3] = [214, 168, 134];
 const NO_VALUE: [u8; 3] = [150, 150, 150];
+/// Rigid obstacles: a warm grey, apart from the body's colours and the floor.
+const OBSTACLE: [u8; 3] = [176, 168, 158];
 const SKY_TOP: [u8; 3] = [252, 252, 253];
 const SKY_BOTTOM: [u8; 3] = [208, 213, 221];
 
@@ -309,6 +311,7 @@ struct Shader<'a> {
     plain: [f32; 3],
     cap_plain: [f32; 3],
     no_value: [f32; 3],
+    obstacle: [f32; 3],
     height: f64,
 }
 
@@ -341,7 +344,9 @@ impl Shader<'_> {
         let tri = &self.tris[s.tri as usize];
         let mu = s.perspective(px, py);
         let value = mu[0] * tri.value[0] + mu[1] * tri.value[1] + mu[2] * tri.value[2];
-        let base = if self.has_field {
+        let base = if tri.obstacle {
+            self.obstacle
+        } else if self.has_field {
             if value.is_finite() {
                 self.cmap
                     .sample((value - self.range.0) / (self.range.1 - self.range.0))
@@ -423,6 +428,7 @@ impl Shader<'_> {
 /// Render one validated frame.
 pub(crate) fn render_frame(
     view: &SceneView<'_>,
+    obstacles: &[[Vec3; 3]],
     camera: &Camera,
     params: &RenderParams,
     range: (f64, f64),
@@ -432,7 +438,8 @@ pub(crate) fn render_frame(
     let (w, h) = (params.width as usize, params.height as usize);
     let (sw, sh) = (w * ss, h * ss);
     let proj = Projection::new(camera, &layout.viewport, ss as f64);
-    let tris = build_triangles(view, params);
+    let mut tris = build_triangles(view, params);
+    tris.extend(obstacle_triangles(obstacles));
     let setups: Vec<Setup> = tris
         .iter()
         .enumerate()
@@ -463,7 +470,7 @@ pub(crate) fn render_frame(
         fill: camera_dir(-0.75, 0.15, 0.45),
         world_up: camera.world_up,
         floor: if params.show_floor {
-            Floor::new(camera, &tris)
+            Floor::new(camera, &tris, params.ground.as_ref())
         } else {
             None
         },
@@ -471,6 +478,7 @@ pub(crate) fn render_frame(
         plain: lin(PLAIN),
         cap_plain: lin(CAP_PLAIN),
         no_value: lin(NO_VALUE),
+        obstacle: lin(OBSTACLE),
         height: sh as f64,
         proj,
     };

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use super::{
-    Bounds, FieldLocation, Image, RenderMesh, RenderParams, SceneView, field_range, fit_camera,
-    render, write_gif,
+    Bounds, FieldLocation, Image, Plane, RenderMesh, RenderParams, SceneView, field_range,
+    fit_camera, render_with_obstacles, write_gif,
 };
 use crate::error::{Error, Result};
 use crate::math::Vec3;
@@ -22,6 +22,12 @@ pub struct RunFrame<'a> {
     /// Values of the field the pictures are coloured by (see [`RenderParams::field`]); empty
     /// when the field is `None`.
     pub field: &'a [f64],
+    /// Rigid obstacles at this frame as world triangles (m), drawn as shaded surfaces; empty
+    /// without obstacles. The camera is fitted to them too.
+    pub obstacles: &'a [[Vec3; 3]],
+    /// A ground plane at this frame, drawn as the floor (see [`RenderParams::ground`]); None
+    /// keeps `params`' own.
+    pub ground: Option<Plane>,
 }
 
 /// How the pictures of a run look and how big they are (the `[output]` settings).
@@ -76,6 +82,9 @@ pub fn render_run(
     let mut bounds = Bounds::empty();
     for f in frames {
         bounds.include(f.positions);
+        for t in f.obstacles {
+            bounds.include(t);
+        }
     }
     let range = match params.preview.field {
         Some(kind) => {
@@ -106,7 +115,16 @@ pub fn render_run(
             time: f.time,
             frame: f.frame,
         };
-        render(&view, camera, p, range)
+        match f.ground {
+            Some(ground) => {
+                let p = RenderParams {
+                    ground: Some(ground),
+                    ..p.clone()
+                };
+                render_with_obstacles(&view, f.obstacles, camera, &p, range)
+            }
+            None => render_with_obstacles(&view, f.obstacles, camera, p, range),
+        }
     };
 
     let preview_camera = fit_camera(&bounds, &params.preview);

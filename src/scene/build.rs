@@ -4,6 +4,8 @@
 //! lacks) are located at their key like the validator's.
 
 use crate::boundary::{Boundary, Constraint, Load, Motion, Region};
+use crate::contact::obstacle::{Obstacle, Shape};
+use crate::contact::{ContactParams, ContactSetup, ObstacleSpec};
 use crate::elastic::{ElasticBody, MaterialRegion};
 use crate::error::{Error, Result};
 use crate::integrator::{Integrator, OnFailure, PreconditionerKind, SolverParams};
@@ -16,7 +18,7 @@ use crate::sim::{Simulation, State};
 
 use super::locate::{Seg, key};
 use super::schema::{
-    Generator, IntegratorName, OnFailureName, PreconditionerName, RegionSpec, Scene,
+    Generator, IntegratorName, MotionSpec, OnFailureName, PreconditionerName, RegionSpec, Scene,
 };
 
 impl Scene {
@@ -150,12 +152,7 @@ impl Scene {
                     components[*c as usize] = true;
                 }
             }
-            let motion = fixed.motion.as_ref().map_or(Motion::default(), |m| Motion {
-                translate: Vec3::from(m.translate),
-                rotate_degrees: m.rotate_degrees,
-                axis: Vec3::from(m.axis),
-                center: Vec3::from(m.center),
-            });
+            let motion = motion(fixed.motion.as_ref());
             boundary.constraints.push(Constraint {
                 vertices,
                 components,
@@ -180,6 +177,74 @@ impl Scene {
             boundary.loads.push(load);
         }
         Ok(boundary)
+    }
+
+    /// True when the scene turns contact on: it has `[contact]` or an `[[obstacle]]`.
+    pub fn has_contact(&self) -> bool {
+        self.contact.is_some() || !self.obstacle.is_empty()
+    }
+
+    /// What the scene asks of contact (None: no `[contact]`, no `[[obstacle]]`): the obstacles
+    /// with their shapes, motions and friction, and the `[contact]` settings. Mesh obstacles
+    /// are read here; a file that cannot be read or holds no usable triangles is reported at
+    /// the line of its `mesh` key, followed by the file's own location.
+    pub fn contact_setup(&self) -> Result<Option<ContactSetup>> {
+        if !self.has_contact() {
+            return Ok(None);
+        }
+        let spec = self.contact.clone().unwrap_or_default();
+        let mut obstacles = Vec::with_capacity(self.obstacle.len());
+        for (i, o) in self.obstacle.iter().enumerate() {
+            let motion = motion(o.motion.as_ref());
+            let (shape_key, built) = if let Some(p) = &o.plane {
+                let shape = Shape::Plane {
+                    point: Vec3::from(p.point),
+                    normal: Vec3::from(p.normal),
+                };
+                ("plane", Obstacle::new(shape, motion))
+            } else if let Some(b) = &o.cuboid {
+                let shape = Shape::Box {
+                    min: Vec3::from(b.min),
+                    max: Vec3::from(b.max),
+                };
+                ("box", Obstacle::new(shape, motion))
+            } else if let Some(sphere) = &o.sphere {
+                let shape = Shape::Sphere {
+                    center: Vec3::from(sphere.center),
+                    radius: sphere.radius,
+                };
+                ("sphere", Obstacle::new(shape, motion))
+            } else if let Some(file) = &o.mesh {
+                ("mesh", Obstacle::from_file(&self.resolve(file), motion))
+            } else {
+                // `validate` refuses an obstacle without a shape.
+                return Err(self.error_at(&key!["obstacle", i], "needs a shape key"));
+            };
+            let obstacle = built.map_err(|e| {
+                let message = match e {
+                    Error::Parameter { message, .. } => message,
+                    other => other.to_string(),
+                };
+                self.error_at(&key!["obstacle", i, shape_key], message)
+            })?;
+            obstacles.push(ObstacleSpec {
+                name: o
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("obstacle {}", i + 1)),
+                obstacle,
+                friction: o.friction,
+                duration: o.duration,
+            });
+        }
+        Ok(Some(ContactSetup {
+            obstacles,
+            params: ContactParams {
+                distance: spec.distance,
+                friction: spec.friction,
+                self_contact: spec.self_contact,
+            },
+        }))
     }
 
     /// A file the scene names at `key` that cannot be opened is reported at that key's line;
@@ -220,6 +285,16 @@ impl Scene {
             .for_each(|v| *v = Vec3::from(self.initial.velocity));
         Ok(state)
     }
+}
+
+/// A scene motion (None: at rest).
+fn motion(spec: Option<&MotionSpec>) -> Motion {
+    spec.map_or(Motion::default(), |m| Motion {
+        translate: Vec3::from(m.translate),
+        rotate_degrees: m.rotate_degrees,
+        axis: Vec3::from(m.axis),
+        center: Vec3::from(m.center),
+    })
 }
 
 fn region(spec: &RegionSpec, renumbering: Option<&Renumbering>) -> Region {
@@ -284,10 +359,13 @@ impl Simulation {
             })?;
         let boundary = scene.build_boundary_renumbered(&body.mesh, renumbering.as_ref())?;
         let initial = scene.initial_state_renumbered(&body, renumbering.as_ref())?;
-        Ok(
-            Simulation::new(body, boundary, scene.solver_params(), initial)?
-                .with_renumbering(renumbering),
-        )
+        let contact = scene.contact_setup()?;
+        let sim = Simulation::new(body, boundary, scene.solver_params(), initial)?
+            .with_renumbering(renumbering);
+        match contact {
+            Some(setup) => sim.with_contact(setup),
+            None => Ok(sim),
+        }
     }
 }
 

@@ -24,9 +24,9 @@ use std::fmt::Display;
 use std::path::{Path, PathBuf};
 
 pub use schema::{
-    Component, FixedSpec, Generator, InitialSpec, IntegratorName, LoadSpec, MaterialSpec, MeshSpec,
-    MotionSpec, OnFailureName, OutputSpec, PreconditionerName, RegionSpec, Scene, SolverSpec,
-    VolumeSpec,
+    BoxSpec, Component, ContactSpec, FixedSpec, Generator, InitialSpec, IntegratorName, LoadSpec,
+    MaterialSpec, MeshSpec, MotionSpec, ObstacleEntry, OnFailureName, OutputSpec, PlaneSpec,
+    PreconditionerName, RegionSpec, Scene, SolverSpec, SphereSpec, VolumeSpec,
 };
 
 use crate::error::{Error, Result};
@@ -145,3 +145,6 @@ mod tests {
         assert!(msg.starts_with("s.toml:2:"), "{msg}");
     }
 }
+
+#[cfg(test)]
+mod contact_tests;

@@ -43,6 +43,13 @@ pub struct Scene {
     /// `[output]`.
     #[serde(default)]
     pub output: OutputSpec,
+    /// `[[obstacle]]`: rigid obstacles (SPEC §11); any of them turns contact on. Left out of
+    /// the manifest's parameters when empty, so scenes without contact keep their bytes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub obstacle: Vec<ObstacleEntry>,
+    /// `[contact]`: contact settings (SPEC §11); the table alone turns contact on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact: Option<ContactSpec>,
     /// The scene file (for messages); not a TOML key.
     #[serde(skip)]
     pub path: PathBuf,
@@ -193,6 +200,85 @@ impl Default for MotionSpec {
             rotate_degrees: 0.0,
             axis: [1.0, 0.0, 0.0],
             center: [0.0; 3],
+        }
+    }
+}
+
+/// `[[obstacle]]`: a rigid obstacle as the scene writes it, exactly one shape key (`plane`,
+/// `box`, `sphere`, `mesh`); [`Scene::contact_setup`] makes a [`crate::contact::ObstacleSpec`] of it.
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleEntry {
+    /// Name in messages. Default "obstacle N" (1-based, in file order).
+    pub name: Option<String>,
+    /// A plane; the normal points to the free side.
+    pub plane: Option<PlaneSpec>,
+    /// An axis-aligned box; bodies stay outside.
+    #[serde(rename = "box")]
+    pub cuboid: Option<BoxSpec>,
+    /// A ball; bodies stay outside.
+    pub sphere: Option<SphereSpec>,
+    /// A triangle surface file relative to the scene: `.obj`, `.stl`, or a tet mesh file
+    /// (its boundary).
+    pub mesh: Option<PathBuf>,
+    /// Coulomb coefficient against this obstacle, ≥ 0. Default `[contact] friction`.
+    pub friction: Option<f64>,
+    /// Scripted rigid motion, as for `[[fixed]]`. Default: at rest.
+    pub motion: Option<MotionSpec>,
+    /// Ramp duration of the motion, s (backward Euler). Default: the whole run.
+    pub duration: Option<f64>,
+}
+
+/// `plane = { point, normal }` of an obstacle.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneSpec {
+    /// A point on the plane, m.
+    pub point: [f64; 3],
+    /// The normal (any non-zero length), towards the side bodies live on.
+    pub normal: [f64; 3],
+}
+
+/// `box = { min, max }` of an obstacle.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    /// Lower corner, m.
+    pub min: [f64; 3],
+    /// Upper corner, m.
+    pub max: [f64; 3],
+}
+
+/// `sphere = { center, radius }` of an obstacle.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    /// Center, m.
+    pub center: [f64; 3],
+    /// Radius, m (> 0).
+    pub radius: f64,
+}
+
+/// `[contact]`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContactSpec {
+    /// d̂, m (> 0): the gap below which contact acts. Default: 1e-3 × the scene's bounding-box
+    /// diagonal.
+    pub distance: Option<f64>,
+    /// Coulomb coefficient between bodies and for obstacles without their own, ≥ 0. Default 0.
+    pub friction: f64,
+    /// Self-contact inside each body. Default true.
+    #[serde(rename = "self")]
+    pub self_contact: bool,
+}
+
+impl Default for ContactSpec {
+    fn default() -> Self {
+        ContactSpec {
+            distance: None,
+            friction: 0.0,
+            self_contact: true,
         }
     }
 }

@@ -11,8 +11,8 @@ use std::fmt::Display;
 
 use super::locate::{Locator, Seg, key};
 use super::schema::{
-    FixedSpec, Generator, LoadSpec, MeshSpec, OutputSpec, PreconditionerName, RegionSpec, Scene,
-    SolverSpec,
+    ContactSpec, FixedSpec, Generator, LoadSpec, MeshSpec, MotionSpec, ObstacleEntry, OutputSpec,
+    PreconditionerName, RegionSpec, Scene, SolverSpec,
 };
 use crate::error::{Error, Result};
 
@@ -46,6 +46,12 @@ pub(super) fn validate(scene: &Scene) -> Result<()> {
         v.load(i, load);
     }
     v.finite3(&key!["initial", "velocity"], scene.initial.velocity, "m/s");
+    for (i, obstacle) in scene.obstacle.iter().enumerate() {
+        v.obstacle(i, obstacle);
+    }
+    if let Some(contact) = &scene.contact {
+        v.contact(contact);
+    }
     v.solver(&scene.solver);
     v.output(&scene.output);
     v.finish()
@@ -265,16 +271,7 @@ impl Validator<'_> {
         let base = key!["fixed", i];
         self.region(&join(&base, &key!["region"]), &fixed.region);
         if let Some(m) = &fixed.motion {
-            let at = |k: &'static str| join(&base, &key!["motion", k]);
-            self.finite3(&at("translate"), m.translate, "m");
-            if !m.rotate_degrees.is_finite() {
-                self.fail(
-                    &at("rotate_degrees"),
-                    format!("must be finite (degrees), got {}", m.rotate_degrees),
-                );
-            }
-            self.finite3(&at("axis"), m.axis, "a direction");
-            self.finite3(&at("center"), m.center, "m");
+            self.motion(&join(&base, &key!["motion"]), m);
         }
         if let Some(d) = fixed.duration {
             self.non_negative(&join(&base, &key!["duration"]), d, "s");
@@ -282,6 +279,104 @@ impl Validator<'_> {
         if let Some(t) = fixed.until {
             self.non_negative(&join(&base, &key!["until"]), t, "s, or a load factor");
         }
+    }
+
+    /// A rigid motion of `[[fixed]]` or `[[obstacle]]` (at `base`).
+    fn motion(&mut self, base: &[Seg], m: &MotionSpec) {
+        let at = |k: &'static str| join(base, &key![k]);
+        self.finite3(&at("translate"), m.translate, "m");
+        if !m.rotate_degrees.is_finite() {
+            self.fail(
+                &at("rotate_degrees"),
+                format!("must be finite (degrees), got {}", m.rotate_degrees),
+            );
+        }
+        self.finite3(&at("axis"), m.axis, "a direction");
+        self.finite3(&at("center"), m.center, "m");
+    }
+
+    /// One `[[obstacle]]`: exactly one shape, with usable numbers; friction, motion, duration.
+    /// (A mesh file is read, and its problems reported, when the scene is built.)
+    fn obstacle(&mut self, i: usize, o: &ObstacleEntry) {
+        let base = key!["obstacle", i];
+        let at = |tail: &[Seg<'static>]| join(&base, tail);
+        let shapes = [
+            ("plane", o.plane.is_some()),
+            ("box", o.cuboid.is_some()),
+            ("sphere", o.sphere.is_some()),
+            ("mesh", o.mesh.is_some()),
+        ];
+        let given: Vec<&str> = shapes.iter().filter(|s| s.1).map(|s| s.0).collect();
+        match given.as_slice() {
+            [] => self.fail(
+                &base,
+                "needs exactly one shape key of plane, box, sphere, mesh; got none",
+            ),
+            [_] => {}
+            [first, second, ..] => self.fail(
+                &at(&key![*second]),
+                format!(
+                    "needs exactly one shape key of plane, box, sphere, mesh; got {first} and {second}"
+                ),
+            ),
+        }
+        if let Some(p) = &o.plane {
+            self.finite3(&at(&key!["plane", "point"]), p.point, "m");
+            if !(p.normal.iter().all(|c| c.is_finite()) && p.normal.iter().any(|&c| c != 0.0)) {
+                self.fail(
+                    &at(&key!["plane", "normal"]),
+                    format!("must be finite and non-zero, got {}", vec3(p.normal)),
+                );
+            }
+        }
+        if let Some(b) = &o.cuboid {
+            self.finite3(&at(&key!["box", "min"]), b.min, "m");
+            self.finite3(&at(&key!["box", "max"]), b.max, "m");
+            if (0..3).any(|k| b.max[k] <= b.min[k] || b.max[k].is_nan() || b.min[k].is_nan()) {
+                self.fail(
+                    &at(&key!["box", "max"]),
+                    format!(
+                        "must exceed min on every axis, got min = {}, max = {}",
+                        vec3(b.min),
+                        vec3(b.max)
+                    ),
+                );
+            }
+        }
+        if let Some(sphere) = &o.sphere {
+            self.finite3(&at(&key!["sphere", "center"]), sphere.center, "m");
+            self.positive(&at(&key!["sphere", "radius"]), sphere.radius, "m");
+        }
+        if let Some(mesh) = &o.mesh
+            && mesh.as_os_str().is_empty()
+        {
+            self.fail(&at(&key!["mesh"]), "must name a file");
+        }
+        if let Some(name) = &o.name
+            && name.trim().is_empty()
+        {
+            self.fail(&at(&key!["name"]), "must not be empty");
+        }
+        if let Some(mu) = o.friction {
+            self.non_negative(&at(&key!["friction"]), mu, "a Coulomb coefficient");
+        }
+        if let Some(m) = &o.motion {
+            self.motion(&at(&key!["motion"]), m);
+        }
+        if let Some(d) = o.duration {
+            self.non_negative(&at(&key!["duration"]), d, "s");
+        }
+    }
+
+    fn contact(&mut self, c: &ContactSpec) {
+        if let Some(d) = c.distance {
+            self.positive(&key!["contact", "distance"], d, "m");
+        }
+        self.non_negative(
+            &key!["contact", "friction"],
+            c.friction,
+            "a Coulomb coefficient",
+        );
     }
 
     fn load(&mut self, i: usize, load: &LoadSpec) {
