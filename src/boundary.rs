@@ -118,6 +118,12 @@ impl Motion {
         self.center + rotation * (x0 - self.center) + s * self.translate
     }
 
+    /// The point that [`Motion::apply`] takes to `x` at ramp `s` (its inverse).
+    pub fn unapply(&self, s: f64, x: &Vec3) -> Vec3 {
+        let rotation = self.rotation(s);
+        self.center + rotation.transpose() * (x - s * self.translate - self.center)
+    }
+
     fn rotation(&self, s: f64) -> Mat3 {
         match nalgebra::Unit::try_new(self.axis, 0.0) {
             Some(axis) if self.rotate_degrees != 0.0 => {

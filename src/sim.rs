@@ -384,22 +384,24 @@ impl Simulation {
             self.boundary
                 .external_forces(&clock, self.body.masses(), &mut self.f_ext);
             if let Some(contact) = &mut self.newton.potential_mut().contact {
-                // Obstacles where the step ends; the guess no further than CCD finds free.
+                // The guess no further than CCD finds free, carried along by moving obstacles.
                 let step = if kind_is_dynamic { h } else { 1.0 };
-                contact.begin_step(&self.xn, step, |duration| clock.ramp(duration));
-                let dx: Vec<Vec3> = self
-                    .state
-                    .x
-                    .iter()
-                    .zip(&self.xn)
-                    .map(|(x, xn)| x - xn)
-                    .collect();
-                let t = contact.max_step(&self.xn, &dx);
-                if t < 1.0 {
-                    for ((x, xn), dx) in self.state.x.iter_mut().zip(&self.xn).zip(&dx) {
-                        *x = xn + t * dx;
+                let start = match clock {
+                    Clock::Time { time, run_duration } => Clock::Time {
+                        time: time - h,
+                        run_duration,
+                    },
+                    Clock::LoadFactor(s) => {
+                        Clock::LoadFactor(s - 1.0 / (substeps * p.frames) as f64)
                     }
-                }
+                };
+                contact.begin_step(
+                    &self.xn,
+                    step,
+                    |duration| start.ramp(duration),
+                    |duration| clock.ramp(duration),
+                );
+                contact.prepare_guess(&self.xn, &mut self.state.x, &self.free);
             }
             let kind = if kind_is_dynamic {
                 StepKind::Dynamic {
@@ -417,7 +419,9 @@ impl Simulation {
                 free: &self.free,
                 params: &self.params,
             };
-            let mut info = self.newton.solve(&ctx, &mut self.state.x, &mut self.state.v);
+            let mut info = self
+                .newton
+                .solve(&ctx, &mut self.state.x, &mut self.state.v);
             // Moving obstacles go as far as they can without passing through the body, Newton
             // moves the body out of their way, and so on until they arrive.
             let mut pushes = 0;
@@ -435,7 +439,9 @@ impl Simulation {
                     ));
                     break;
                 }
-                let mut more = self.newton.solve(&ctx, &mut self.state.x, &mut self.state.v);
+                let mut more = self
+                    .newton
+                    .solve(&ctx, &mut self.state.x, &mut self.state.v);
                 // Each push starts near the last equilibrium; its tolerance is the step's (relative
                 // to the first solve's first residual), not a fraction of its own small start.
                 let reference = info.history.first().copied().unwrap_or(0.0);

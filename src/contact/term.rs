@@ -148,10 +148,19 @@ impl ContactTerm {
     /// them), their tangent frames and normal forces λ = −2κ√d b′(d), and the smoothing
     /// ε = ε_v·h with ε_v = 10⁻³ bounding-box diagonals per second (`h` the step, s; 1 s when
     /// quasistatic).
-    pub fn begin_step(&mut self, xn: &[Vec3], h: f64, ramp: impl Fn(Option<f64>) -> f64) {
-        let start = std::mem::take(&mut self.placed);
+    pub fn begin_step(
+        &mut self,
+        xn: &[Vec3],
+        h: f64,
+        ramp_start: impl Fn(Option<f64>) -> f64,
+        ramp_end: impl Fn(Option<f64>) -> f64,
+    ) {
+        // Both ends from the clock, not from where the last attempt left the obstacles: a step
+        // retried with smaller substeps starts where the frame started.
+        self.place(ramp_start);
         self.ramp_start.clone_from(&self.ramp_now);
-        self.place(ramp);
+        let start = std::mem::take(&mut self.placed);
+        self.place(ramp_end);
         self.ramp_target.clone_from(&self.ramp_now);
         self.friction_eps = 1e-3 * self.bbox_diagonal * h;
         self.lag_friction(xn, &start);
@@ -355,6 +364,95 @@ impl ContactTerm {
         self.ramp_now = ramps.to_vec();
     }
 
+    /// The step's first guess: x (the predictor, moving from `xn`) cut back to what CCD finds
+    /// free of the obstacles where they stand, then the body's surface vertices that a moving
+    /// obstacle sweeps over this step carried along with it (their place relative to the
+    /// obstacle kept, for the free components), and the obstacles moved to where the step
+    /// ends. Rigid motions keep a carried vertex's gap, so the guess is feasible and Newton's
+    /// iterates never pass through; should the carried guess still touch an obstacle, the
+    /// obstacles stay where they stand and [`ContactTerm::advance_obstacles`] brings them on.
+    pub fn prepare_guess(&mut self, xn: &[Vec3], x: &mut [Vec3], free: &[Vec3]) {
+        let dx: Vec<Vec3> = x.iter().zip(xn).map(|(x, xn)| x - xn).collect();
+        let t = ContactTerm::max_step(self, xn, &dx);
+        if t < 1.0 {
+            // Prescribed components keep their prescribed values.
+            for (((x, xn), dx), m) in x.iter_mut().zip(xn).zip(&dx).zip(free) {
+                *x += (xn + t * dx - *x).component_mul(m);
+            }
+        }
+        if self.obstacles_arrived() {
+            return;
+        }
+        let before = x.to_vec();
+        let start = std::mem::take(&mut self.placed);
+        let start_ramps = self.ramp_now.clone();
+        let target = self.ramp_target.clone();
+        self.place_at(&target);
+        let params = CcdParams::default();
+        for (o, spec) in self.setup.obstacles.iter().enumerate() {
+            let (s0, s1) = (start_ramps[o], target[o]);
+            if s0 == s1 {
+                continue;
+            }
+            let (a, b) = (&start[o], &self.placed[o]);
+            let swept: Vec<usize> =
+                match (&spec.obstacle.shape, a.plane, b.plane, a.sphere, b.sphere) {
+                    (Shape::Plane { .. }, Some((o0, n)), Some((o1, _)), _, _) => self
+                        .surface
+                        .vertices
+                        .iter()
+                        .copied()
+                        .filter(|&v| {
+                            point_plane_ccd(&before[v], &before[v], &o0, &o1, &n, &params) < 1.0
+                        })
+                        .collect(),
+                    (Shape::Sphere { .. }, _, _, Some((c0, r)), Some((c1, _))) => self
+                        .surface
+                        .vertices
+                        .iter()
+                        .copied()
+                        .filter(|&v| {
+                            let p = [before[v]; 3];
+                            sphere_triangle_ccd(&c0, &c1, r, &p, &p, &params) < 1.0
+                        })
+                        .collect(),
+                    _ => {
+                        let os = spec.obstacle.contact_surface();
+                        let (y0, y1) = (&a.positions, &b.positions);
+                        let body = self.surface.primitives(&before, &before);
+                        let c = cross_candidates(&body, &os.primitives(y0, y1), self.dhat.sqrt());
+                        let mut swept: Vec<usize> = c
+                            .point_triangle
+                            .iter()
+                            .filter(|&&[v, f]| {
+                                let p = before[self.surface.vertices[v]];
+                                let (s, e) =
+                                    (os.faces[f].map(|i| y0[i]), os.faces[f].map(|i| y1[i]));
+                                point_triangle_ccd(
+                                    &[p, s[0], s[1], s[2]],
+                                    &[p, e[0], e[1], e[2]],
+                                    &params,
+                                ) < 1.0
+                            })
+                            .map(|&[v, _]| self.surface.vertices[v])
+                            .collect();
+                        swept.dedup();
+                        swept
+                    }
+                };
+            let motion = &spec.obstacle.motion;
+            for v in swept {
+                let carried = motion.apply(s1, &motion.unapply(s0, &before[v]));
+                x[v] += (carried - before[v]).component_mul(&free[v]);
+            }
+        }
+        if self.intersection(x).is_some() {
+            x.copy_from_slice(&before);
+            self.placed = start;
+            self.ramp_now = start_ramps;
+        }
+    }
+
     /// Whether every obstacle is where the step ends.
     pub fn obstacles_arrived(&self) -> bool {
         self.ramp_now == self.ramp_target
@@ -394,7 +492,8 @@ impl ContactTerm {
                 _ => {
                     let os = spec.obstacle.contact_surface();
                     let (y0, y1) = (&a.positions, &b.positions);
-                    let c = cross_candidates(&surface.primitives(x, x), &os.primitives(y0, y1), 0.0);
+                    let c =
+                        cross_candidates(&surface.primitives(x, x), &os.primitives(y0, y1), 0.0);
                     let pt = c.point_triangle.par_iter().map(|&[v, f]| {
                         let p = x[surface.vertices[v]];
                         let (s, e) = (os.faces[f].map(|i| y0[i]), os.faces[f].map(|i| y1[i]));
@@ -867,8 +966,8 @@ fn plane_basis(n: &Vec3) -> nalgebra::Matrix3x2<f64> {
 mod tests {
     use super::*;
     use crate::boundary::Motion;
-    use crate::contact::obstacle::Obstacle;
     use crate::contact::ObstacleSpec;
+    use crate::contact::obstacle::Obstacle;
     use crate::integrator::{SolverParams, StepKind};
     use crate::mesh::generate::box_mesh;
 
@@ -876,14 +975,30 @@ mod tests {
     /// central differences, at a state where a block sits inside d̂ of the obstacle.
     #[test]
     fn contact_term_derivatives_match_finite_differences_for_every_shape() {
-        let mesh = box_mesh(Vec3::new(0.0, 1e-4, 0.0), Vec3::new(0.2, 0.2001, 0.2), [2, 2, 2]);
+        let mesh = box_mesh(
+            Vec3::new(0.0, 1e-4, 0.0),
+            Vec3::new(0.2, 0.2001, 0.2),
+            [2, 2, 2],
+        );
         let n = mesh.positions.len();
         let masses = vec![1.0; n];
         let shapes = [
-            Shape::Plane { point: Vec3::zeros(), normal: Vec3::y() },
-            Shape::Box { min: Vec3::new(-0.05, -0.1, -0.05), max: Vec3::new(0.25, 0.0, 0.25) },
-            Shape::Box { min: Vec3::new(0.03, -0.1, 0.04), max: Vec3::new(0.15, 0.0, 0.13) },
-            Shape::Sphere { center: Vec3::new(0.1, -0.5, 0.1), radius: 0.4999 },
+            Shape::Plane {
+                point: Vec3::zeros(),
+                normal: Vec3::y(),
+            },
+            Shape::Box {
+                min: Vec3::new(-0.05, -0.1, -0.05),
+                max: Vec3::new(0.25, 0.0, 0.25),
+            },
+            Shape::Box {
+                min: Vec3::new(0.03, -0.1, 0.04),
+                max: Vec3::new(0.15, 0.0, 0.13),
+            },
+            Shape::Sphere {
+                center: Vec3::new(0.1, -0.5, 0.1),
+                radius: 0.4999,
+            },
         ];
         for shape in shapes {
             let setup = ContactSetup {
@@ -902,12 +1017,32 @@ mod tests {
                 .positions
                 .iter()
                 .enumerate()
-                .map(|(i, p)| p + Vec3::new(1e-3 * (i as f64).sin(), 2e-5 * (i as f64).cos().abs(), 1e-3 * (i as f64 * 0.7).cos()))
+                .map(|(i, p)| {
+                    p + Vec3::new(
+                        1e-3 * (i as f64).sin(),
+                        2e-5 * (i as f64).cos().abs(),
+                        1e-3 * (i as f64 * 0.7).cos(),
+                    )
+                })
                 .collect();
             let params = SolverParams::default();
-            let body = crate::elastic::ElasticBody::new(mesh.clone(), crate::Model::new(crate::ModelKind::NeoHookean, crate::Lame::from_young_poisson(1e5, 0.3)), 1000.0).unwrap();
+            let body = crate::elastic::ElasticBody::new(
+                mesh.clone(),
+                crate::Model::new(
+                    crate::ModelKind::NeoHookean,
+                    crate::Lame::from_young_poisson(1e5, 0.3),
+                ),
+                1000.0,
+            )
+            .unwrap();
             let zeros = vec![Vec3::zeros(); n];
-            let ctx = StepContext { body: &body, kind: StepKind::Static, f_ext: &zeros, free: &zeros, params: &params };
+            let ctx = StepContext {
+                body: &body,
+                kind: StepKind::Static,
+                f_ext: &zeros,
+                free: &zeros,
+                params: &params,
+            };
             let mut partials = vec![0.0; 8];
             let mut eval = |term: &mut ContactTerm, y: &[Vec3]| {
                 let mut f = vec![Vec3::zeros(); n];
@@ -916,7 +1051,15 @@ mod tests {
             };
             let (_, f) = eval(&mut term, &x);
             assert!(term.active_pairs() > 0, "{shape:?}: no pairs");
-            let u: Vec<Vec3> = (0..n).map(|i| Vec3::new((i as f64 * 1.3).sin(), (i as f64 * 0.9).cos(), (i as f64 * 2.1).sin())).collect();
+            let u: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    Vec3::new(
+                        (i as f64 * 1.3).sin(),
+                        (i as f64 * 0.9).cos(),
+                        (i as f64 * 2.1).sin(),
+                    )
+                })
+                .collect();
             let slope: f64 = -f.iter().zip(&u).map(|(f, u)| f.dot(u)).sum::<f64>();
             let mut hu = vec![Vec3::zeros(); n];
             term.use_exact(true);
@@ -931,7 +1074,10 @@ mod tests {
                 let (em, fm) = eval(&mut term, &minus);
                 let fd = (ep - em) / (2.0 * t);
                 best_e = best_e.min((fd - slope).abs() / slope.abs().max(1e-30));
-                let err: f64 = (0..n).map(|i| ((fm[i] - fp[i]) / (2.0 * t) - hu[i]).norm_squared()).sum::<f64>().sqrt();
+                let err: f64 = (0..n)
+                    .map(|i| ((fm[i] - fp[i]) / (2.0 * t) - hu[i]).norm_squared())
+                    .sum::<f64>()
+                    .sqrt();
                 let norm: f64 = hu.iter().map(|v| v.norm_squared()).sum::<f64>().sqrt();
                 best_h = best_h.min(err / norm.max(1e-30));
             }
