@@ -130,7 +130,15 @@ impl Newton {
             ..Default::default()
         };
         self.timings = Timings::default();
-        let floor = absolute_floor(ctx.body);
+        // With contact the first residual can be small (a body coming to rest on an obstacle)
+        // while the barrier's stiffness puts rounding far above a fraction of it: the tolerance
+        // then also counts against the loads (‖f_ext‖, the weight), as users of the peers
+        // expect. Without contact the floor is as it always was.
+        let mut floor = absolute_floor(ctx.body);
+        if self.potential.contact.is_some() {
+            let loads = cg::dot(ctx.f_ext, ctx.f_ext, &mut self.partials).sqrt();
+            floor = floor.max(params.newton_tolerance * loads);
+        }
         let mut eval = self.evaluate(ctx, x, v);
         let first = eval.residual;
         let mut eta = FORCING_MAX;
