@@ -1548,12 +1548,32 @@ youngs_modulus = 1e6
 region = { box = { min = [-0.01, -1, -1], max = [0.01, 2, 2] } }
 "#;
 
+/// The ground plane y = 0 as the only obstacle, with this friction.
+fn ground_contact(friction: Option<f64>) -> tetsim::contact::ContactSetup {
+    use tetsim::contact::obstacle::{Obstacle, Shape};
+    let ground = Obstacle::new(
+        Shape::Plane {
+            point: Vec3::zeros(),
+            normal: Vec3::y(),
+        },
+        Default::default(),
+    )
+    .unwrap();
+    tetsim::contact::ContactSetup {
+        obstacles: vec![tetsim::contact::ObstacleSpec {
+            name: "ground".into(),
+            obstacle: ground,
+            friction,
+            duration: None,
+        }],
+        params: Default::default(),
+    }
+}
+
 /// Contact I: a soft block dropped on the ground plane settles on it, never goes below it, and
 /// the contact forces carry its weight once it rests.
 #[test]
 fn dropped_block_settles_on_the_ground_and_its_contact_forces_carry_its_weight() {
-    use tetsim::contact::obstacle::{Obstacle, Shape};
-    use tetsim::contact::{ContactSetup, ObstacleSpec};
     let scene = Scene::parse(
         r#"
         [mesh]
@@ -1570,23 +1590,7 @@ fn dropped_block_settles_on_the_ground_and_its_contact_forces_carry_its_weight()
         ".".as_ref(),
     )
     .unwrap();
-    let ground = Obstacle::new(
-        Shape::Plane {
-            point: Vec3::zeros(),
-            normal: Vec3::y(),
-        },
-        Default::default(),
-    )
-    .unwrap();
-    let setup = ContactSetup {
-        obstacles: vec![ObstacleSpec {
-            name: "obstacle 1".into(),
-            obstacle: ground,
-            friction: None,
-            duration: None,
-        }],
-        params: Default::default(),
-    };
+    let setup = ground_contact(None);
     let mut sim = Simulation::from_scene(&scene)
         .unwrap()
         .with_contact(setup)
@@ -1621,8 +1625,6 @@ fn dropped_block_settles_on_the_ground_and_its_contact_forces_carry_its_weight()
 /// `mu` for 0.6 s; returns the mass-weighted mean velocities along the slope at 0.2 s and at the
 /// end and the tangential displacement (m).
 fn block_on_slope(degrees: f64, mu: f64) -> (f64, f64, f64) {
-    use tetsim::contact::obstacle::{Obstacle, Shape};
-    use tetsim::contact::{ContactSetup, ObstacleSpec};
     let theta = degrees.to_radians();
     let g = 9.81;
     let scene = Scene::parse(
@@ -1645,23 +1647,7 @@ fn block_on_slope(degrees: f64, mu: f64) -> (f64, f64, f64) {
         ".".as_ref(),
     )
     .unwrap();
-    let ground = Obstacle::new(
-        Shape::Plane {
-            point: Vec3::zeros(),
-            normal: Vec3::y(),
-        },
-        Default::default(),
-    )
-    .unwrap();
-    let setup = ContactSetup {
-        obstacles: vec![ObstacleSpec {
-            name: "slope".into(),
-            obstacle: ground,
-            friction: Some(mu),
-            duration: None,
-        }],
-        params: Default::default(),
-    };
+    let setup = ground_contact(Some(mu));
     let mut sim = Simulation::from_scene(&scene)
         .unwrap()
         .with_contact(setup)

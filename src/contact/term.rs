@@ -471,57 +471,25 @@ impl ContactTerm {
         let from_ramps = self.ramp_now.clone();
         let target = self.ramp_target.clone();
         self.place_at(&target);
-        let params = CcdParams::default();
-        let surface = &self.surface;
-        let mut t = 1.0f64;
-        for ((spec, a), b) in self.setup.obstacles.iter().zip(&from).zip(&self.placed) {
-            let toi = match (&spec.obstacle.shape, a.plane, b.plane, a.sphere, b.sphere) {
-                (Shape::Plane { .. }, Some((o0, n)), Some((o1, _)), _, _) => surface
-                    .vertices
-                    .par_iter()
-                    .map(|&v| point_plane_ccd(&x[v], &x[v], &o0, &o1, &n, &params))
-                    .reduce(|| 1.0, f64::min),
-                (Shape::Sphere { .. }, _, _, Some((c0, r)), Some((c1, _))) => surface
-                    .faces
-                    .par_iter()
-                    .map(|f| {
-                        let face = f.map(|v| x[v]);
-                        sphere_triangle_ccd(&c0, &c1, r, &face, &face, &params)
-                    })
-                    .reduce(|| 1.0, f64::min),
-                _ => {
-                    let os = spec.obstacle.contact_surface();
-                    let (y0, y1) = (&a.positions, &b.positions);
-                    let c =
-                        cross_candidates(&surface.primitives(x, x), &os.primitives(y0, y1), 0.0);
-                    let pt = c.point_triangle.par_iter().map(|&[v, f]| {
-                        let p = x[surface.vertices[v]];
-                        let (s, e) = (os.faces[f].map(|i| y0[i]), os.faces[f].map(|i| y1[i]));
-                        point_triangle_ccd(&[p, s[0], s[1], s[2]], &[p, e[0], e[1], e[2]], &params)
-                    });
-                    let tp = c.triangle_point.par_iter().map(|&[f, v]| {
-                        let i = os.vertices[v];
-                        let face = surface.faces[f].map(|k| x[k]);
-                        point_triangle_ccd(
-                            &[y0[i], face[0], face[1], face[2]],
-                            &[y1[i], face[0], face[1], face[2]],
-                            &params,
-                        )
-                    });
-                    let ee = c.edge_edge.par_iter().map(|&[ea, eb]| {
-                        let [a0, a1] = surface.edges[ea];
-                        let [b0, b1] = os.edges[eb];
-                        edge_edge_ccd(
-                            &[x[a0], x[a1], y0[b0], y0[b1]],
-                            &[x[a0], x[a1], y1[b0], y1[b1]],
-                            &params,
-                        )
-                    });
-                    pt.chain(tp).chain(ee).reduce(|| 1.0, f64::min)
-                }
-            };
-            t = t.min(toi);
-        }
+        let t = self
+            .setup
+            .obstacles
+            .iter()
+            .zip(&from)
+            .zip(&self.placed)
+            .map(|((spec, a), b)| {
+                let shape = &spec.obstacle.shape;
+                time_of_impact(
+                    &self.surface,
+                    x,
+                    x,
+                    shape,
+                    spec.obstacle.contact_surface(),
+                    a,
+                    b,
+                )
+            })
+            .fold(1.0, f64::min);
         if t < 1.0 {
             let ramps: Vec<f64> = from_ramps
                 .iter()
@@ -731,56 +699,92 @@ impl ContactTerm {
     /// obstacle (conservative CCD; 1 when nothing is in the way).
     pub fn max_step(&self, x: &[Vec3], dx: &[Vec3]) -> f64 {
         let end: Vec<Vec3> = x.iter().zip(dx).map(|(x, d)| x + d).collect();
-        let params = CcdParams::default();
-        let surface = &self.surface;
-        let mut t = 1.0f64;
-        for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
-            let toi = match (&spec.obstacle.shape, placed.plane, placed.sphere) {
-                (Shape::Plane { .. }, Some((origin, normal)), _) => surface
-                    .vertices
-                    .par_iter()
-                    .map(|&v| point_plane_ccd(&x[v], &end[v], &origin, &origin, &normal, &params))
-                    .reduce(|| 1.0, f64::min),
-                (Shape::Sphere { .. }, _, Some((center, radius))) => surface
-                    .faces
-                    .par_iter()
-                    .map(|f| {
-                        let (s, e) = (f.map(|v| x[v]), f.map(|v| end[v]));
-                        sphere_triangle_ccd(&center, &center, radius, &s, &e, &params)
-                    })
-                    .reduce(|| 1.0, f64::min),
-                _ => {
-                    let obstacle_surface = spec.obstacle.contact_surface();
-                    let y = &placed.positions;
-                    let body = surface.primitives(x, &end);
-                    let other = obstacle_surface.primitives(y, y);
-                    let c = cross_candidates(&body, &other, 0.0);
-                    let pt = c.point_triangle.par_iter().map(|&[v, f]| {
-                        let v = surface.vertices[v];
-                        let [a, b, cc] = obstacle_surface.faces[f].map(|i| y[i]);
-                        point_triangle_ccd(&[x[v], a, b, cc], &[end[v], a, b, cc], &params)
-                    });
-                    let tp = c.triangle_point.par_iter().map(|&[f, v]| {
-                        let p = y[obstacle_surface.vertices[v]];
-                        let face = surface.faces[f];
-                        let (s, e) = (face.map(|i| x[i]), face.map(|i| end[i]));
-                        point_triangle_ccd(&[p, s[0], s[1], s[2]], &[p, e[0], e[1], e[2]], &params)
-                    });
-                    let ee = c.edge_edge.par_iter().map(|&[ea, eb]| {
-                        let [a0, a1] = surface.edges[ea];
-                        let [b0, b1] = obstacle_surface.edges[eb];
-                        edge_edge_ccd(
-                            &[x[a0], x[a1], y[b0], y[b1]],
-                            &[end[a0], end[a1], y[b0], y[b1]],
-                            &params,
-                        )
-                    });
-                    pt.chain(tp).chain(ee).reduce(|| 1.0, f64::min)
-                }
-            };
-            t = t.min(toi);
+        self.setup
+            .obstacles
+            .iter()
+            .zip(&self.placed)
+            .map(|(spec, placed)| {
+                time_of_impact(
+                    &self.surface,
+                    x,
+                    &end,
+                    &spec.obstacle.shape,
+                    spec.obstacle.contact_surface(),
+                    placed,
+                    placed,
+                )
+            })
+            .fold(1.0, f64::min)
+    }
+}
+
+/// The conservative time of impact (0..=1) of the body's surface moving from `x0` to `x1`
+/// against one obstacle moving from `from` to `to` (planes and spheres may only translate
+/// within a step), by additive CCD over every vertex (planes), face (spheres) or broad-phase
+/// pair (boxes and meshes: point–triangle both ways and edge–edge).
+fn time_of_impact(
+    surface: &ContactSurface,
+    x0: &[Vec3],
+    x1: &[Vec3],
+    shape: &Shape,
+    obstacle: &ContactSurface,
+    from: &Placed,
+    to: &Placed,
+) -> f64 {
+    let params = CcdParams::default();
+    match (shape, from.plane, to.plane, from.sphere, to.sphere) {
+        (Shape::Plane { .. }, Some((o0, n)), Some((o1, _)), _, _) => surface
+            .vertices
+            .par_iter()
+            .map(|&v| point_plane_ccd(&x0[v], &x1[v], &o0, &o1, &n, &params))
+            .reduce(|| 1.0, f64::min),
+        (Shape::Sphere { .. }, _, _, Some((c0, r)), Some((c1, _))) => surface
+            .faces
+            .par_iter()
+            .map(|f| {
+                sphere_triangle_ccd(&c0, &c1, r, &f.map(|v| x0[v]), &f.map(|v| x1[v]), &params)
+            })
+            .reduce(|| 1.0, f64::min),
+        _ => {
+            let (y0, y1) = (&from.positions, &to.positions);
+            let c = cross_candidates(
+                &surface.primitives(x0, x1),
+                &obstacle.primitives(y0, y1),
+                0.0,
+            );
+            let pt = c.point_triangle.par_iter().map(|&[v, f]| {
+                let v = surface.vertices[v];
+                let (s, e) = (
+                    obstacle.faces[f].map(|i| y0[i]),
+                    obstacle.faces[f].map(|i| y1[i]),
+                );
+                point_triangle_ccd(
+                    &[x0[v], s[0], s[1], s[2]],
+                    &[x1[v], e[0], e[1], e[2]],
+                    &params,
+                )
+            });
+            let tp = c.triangle_point.par_iter().map(|&[f, v]| {
+                let i = obstacle.vertices[v];
+                let face = surface.faces[f];
+                let (s, e) = (face.map(|k| x0[k]), face.map(|k| x1[k]));
+                point_triangle_ccd(
+                    &[y0[i], s[0], s[1], s[2]],
+                    &[y1[i], e[0], e[1], e[2]],
+                    &params,
+                )
+            });
+            let ee = c.edge_edge.par_iter().map(|&[ea, eb]| {
+                let [a0, a1] = surface.edges[ea];
+                let [b0, b1] = obstacle.edges[eb];
+                edge_edge_ccd(
+                    &[x0[a0], x0[a1], y0[b0], y0[b1]],
+                    &[x1[a0], x1[a1], y1[b0], y1[b1]],
+                    &params,
+                )
+            });
+            pt.chain(tp).chain(ee).reduce(|| 1.0, f64::min)
         }
-        t
     }
 }
 
