@@ -37,6 +37,9 @@ pub struct BenchParams {
     pub solver_overrides: String,
     /// Internal vertex order (`[mesh] reorder`); `random` measures a badly numbered mesh.
     pub reorder: VertexOrder,
+    /// The contact workload: the same beam drooping onto a ground plane 0.5 mm below it
+    /// (friction 0.3), contact active from the first frame.
+    pub contact: bool,
 }
 
 impl Default for BenchParams {
@@ -47,6 +50,7 @@ impl Default for BenchParams {
             repeats: 3,
             solver_overrides: String::new(),
             reorder: VertexOrder::default(),
+            contact: false,
         }
     }
 }
@@ -93,6 +97,24 @@ pub struct SizeReport {
     /// The sparse Cholesky's figures, when it is the preconditioner (feature `direct`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub factor: Option<FactorReport>,
+    /// Contact's costs, in the contact workload.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact: Option<ContactReport>,
+}
+
+/// What contact cost in the first run of a size (the contact workload).
+#[derive(Clone, Debug, Serialize)]
+pub struct ContactReport {
+    /// Active contact pairs at the end of the run.
+    pub active_pairs: usize,
+    /// Broad phase plus barrier, ns per primitive pair examined.
+    pub ns_per_pair_barrier: f64,
+    /// Of which the broad phase, ns per pair examined (0 for planes: no broad phase).
+    pub ns_per_pair_broad: f64,
+    /// CCD, ns per surface primitive per line-search bound.
+    pub ns_per_primitive_ccd: f64,
+    /// Share of the run's wall time in contact (broad phase, barrier, CCD).
+    pub share: f64,
 }
 
 /// What the sparse Cholesky preconditioner cost in the first run of a size.
@@ -166,6 +188,35 @@ newton_tolerance = 1e-4
     )
 }
 
+/// The workload with a ground plane 0.5 mm under the beam (friction 0.3).
+fn with_ground(scene: Scene) -> Result<Scene> {
+    let text = format!(
+        "{}\n[[obstacle]]\nname = \"ground\"\nplane = {{ point = [0.0, -0.0005, 0.0], normal = [0.0, 1.0, 0.0] }}\nfriction = 0.3\n",
+        scene.source()
+    );
+    Scene::parse(
+        &text,
+        std::path::Path::new("<bench contact workload>"),
+        std::path::Path::new("."),
+    )
+}
+
+/// Contact's figures of a finished run of `seconds`.
+fn contact_report(sim: &Simulation, seconds: f64) -> Option<ContactReport> {
+    let costs = sim.contact_costs()?;
+    let surface = crate::contact::surface::ContactSurface::from_mesh(&sim.body.mesh);
+    let primitives = surface.vertices.len().max(1) as f64;
+    let examined = costs.pairs_examined.max(1) as f64;
+    Some(ContactReport {
+        active_pairs: sim.newton_contact_pairs().unwrap_or_default(),
+        ns_per_pair_barrier: (costs.broad_seconds + costs.barrier_seconds) / examined * 1e9,
+        ns_per_pair_broad: costs.broad_seconds / examined * 1e9,
+        ns_per_primitive_ccd: costs.ccd_seconds / (costs.ccd_calls.max(1) as f64 * primitives)
+            * 1e9,
+        share: (costs.broad_seconds + costs.barrier_seconds + costs.ccd_seconds) / seconds,
+    })
+}
+
 /// CG's own vector traffic per iteration, bytes per vertex: the product's input and output
 /// (2 passes), the mass term and projection of the product (3), pᵀAp (2), the x and r updates
 /// (5), ‖r‖ (1), the preconditioner (3), rᵀz (2) and the p update (3): 21 passes of 24 bytes,
@@ -227,7 +278,10 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
     progress(&format!("STREAM triad: {stream:.1} GB/s"));
     let mut sizes = Vec::new();
     for &n in &params.sizes {
-        let scene = workload_scene(n, params.frames, &params.solver_overrides, params.reorder)?;
+        let mut scene = workload_scene(n, params.frames, &params.solver_overrides, params.reorder)?;
+        if params.contact {
+            scene = with_ground(scene)?;
+        }
         let mut per_frame = Vec::new();
         let (mut newton, mut cg, mut frames) = (0usize, 0usize, 0usize);
         let mut timings = crate::integrator::Timings::default();
@@ -236,6 +290,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         let mut report_mem = 0.0;
         let (mut tets, mut vertices, mut operator_bytes_per_tet) = (0, 0, 0.0);
         let mut factor = None;
+        let mut contact = None;
         for repeat in 0..params.repeats {
             let mut sim = Simulation::from_scene(&scene)?;
             tets = sim.body.tet_count();
@@ -258,6 +313,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
                 wall = seconds;
                 report_mem = resident_mb();
                 factor = factor_report(&sim, params.frames);
+                contact = contact_report(&sim, seconds);
             }
             per_frame.push(seconds / params.frames as f64);
             progress(&format!(
@@ -298,6 +354,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             speedup_vs_vegafem: vega,
             all_converged,
             factor,
+            contact,
         });
     }
     Ok(BenchReport {
@@ -379,6 +436,16 @@ impl BenchReport {
                     f.l_nonzeros,
                     f.l_nonzeros as f64 / f.a_nonzeros.max(1) as f64,
                     f.failures
+                ));
+            }
+            if let Some(c) = &r.contact {
+                s.push_str(&format!(
+                    "     contact: {} active pairs, barrier {:.0} ns/pair (broad phase {:.0}), CCD {:.0} ns/primitive, {:.1} % of the time\n",
+                    c.active_pairs,
+                    c.ns_per_pair_barrier,
+                    c.ns_per_pair_broad,
+                    c.ns_per_primitive_ccd,
+                    100.0 * c.share
                 ));
             }
         }

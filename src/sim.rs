@@ -159,6 +159,20 @@ impl Simulation {
         self.contact.as_ref()
     }
 
+    /// Active contact pairs at the last evaluation (None without contact).
+    pub fn newton_contact_pairs(&self) -> Option<usize> {
+        self.newton
+            .potential()
+            .contact
+            .as_ref()
+            .map(|c| c.active_pairs())
+    }
+
+    /// Where contact's time went so far (None without contact).
+    pub fn contact_costs(&self) -> Option<crate::contact::term::ContactCosts> {
+        self.newton.potential().contact.as_ref().map(|c| c.costs())
+    }
+
     /// Contact forces on the vertices at the end of the last frame, N (empty without contact).
     pub fn contact_forces(&self) -> &[Vec3] {
         &self.contact_forces

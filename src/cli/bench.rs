@@ -25,6 +25,10 @@ pub struct BenchArgs {
     /// or random (a shuffled mesh: what a badly numbered input costs).
     #[arg(long, default_value = "auto", value_parser = parse_order)]
     pub reorder: VertexOrder,
+    /// The contact workload: the beam droops onto a ground plane (IPC barrier, friction 0.3);
+    /// compare with the same sizes without it for the cost of contact.
+    #[arg(long)]
+    pub contact: bool,
     /// Print JSON instead of the table (to stdout), for comparing runs.
     #[arg(long)]
     pub json: bool,
@@ -44,6 +48,7 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         repeats: args.repeats,
         solver_overrides: args.solver,
         reorder: args.reorder,
+        contact: args.contact,
     };
     let report = bench::run(&params, |line| {
         if !quiet {

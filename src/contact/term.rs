@@ -34,6 +34,23 @@ use crate::integrator::{HessianShape, StepContext, Term};
 use crate::linear::sparse::BlockCsr;
 use crate::math::{Mat3, Vec3};
 
+/// Where contact's time goes: the broad phase, the barrier's pairs (distances, derivatives,
+/// projection, scatter), and continuous collision detection, with counts to divide by.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactCosts {
+    /// Seconds in the broad phase (BVH build and queries; meshes and boxes only).
+    pub broad_seconds: f64,
+    /// Seconds evaluating pairs (beyond the broad phase).
+    pub barrier_seconds: f64,
+    /// Primitive pairs examined by the barrier (within reach of d̂ after the broad phase, every
+    /// surface vertex for a plane, every face for a sphere).
+    pub pairs_examined: usize,
+    /// Seconds in CCD line-search bounds.
+    pub ccd_seconds: f64,
+    /// CCD bound computations (each over every primitive pair in reach).
+    pub ccd_calls: usize,
+}
+
 /// One active pair: up to four body vertices and the pair's energy derivatives over them.
 #[derive(Clone, Debug)]
 struct Pair {
@@ -80,6 +97,9 @@ pub struct ContactTerm {
     barrier_pairs: usize,
     /// The body's rest positions.
     rest: Vec<Vec3>,
+    costs: ContactCosts,
+    /// CCD seconds and calls (`max_step` takes `&self`).
+    ccd_costs: std::sync::Mutex<(f64, usize)>,
     /// Ramp factors of the obstacles: at the step's start, now, and where the step ends.
     ramp_start: Vec<f64>,
     ramp_now: Vec<f64>,
@@ -127,6 +147,8 @@ impl ContactTerm {
             dissipation: 0.0,
             barrier_pairs: 0,
             rest: mesh.positions.clone(),
+            costs: ContactCosts::default(),
+            ccd_costs: std::sync::Mutex::new((0.0, 0)),
             ramp_start: Vec::new(),
             ramp_now: Vec::new(),
             ramp_target: Vec::new(),
@@ -577,7 +599,9 @@ impl ContactTerm {
     }
 
     /// The pairs within d̂ at x, with their derivatives (κ not applied), in a fixed order.
-    fn collect_pairs(&self, x: &[Vec3]) -> (Vec<Pair>, Option<f64>) {
+    fn collect_pairs(&self, x: &[Vec3]) -> (Vec<Pair>, Option<f64>, usize, f64) {
+        let mut examined = 0;
+        let mut broad_seconds = 0.0;
         let dhat = self.dhat;
         let reach = dhat.sqrt();
         let mut pairs: Vec<Pair> = Vec::new();
@@ -595,6 +619,7 @@ impl ContactTerm {
                             (gap, (d.value < dhat).then(|| pair(&[Some(v)], &d, dhat)))
                         })
                         .collect();
+                    examined += found.len();
                     for (gap, p) in found {
                         min_d = min_d.min(gap);
                         pairs.extend(p);
@@ -618,6 +643,7 @@ impl ContactTerm {
                             (gap, p)
                         })
                         .collect();
+                    examined += found.len();
                     for (gap, p) in found {
                         min_d = min_d.min(gap);
                         pairs.extend(p);
@@ -628,7 +654,9 @@ impl ContactTerm {
                     let y = &placed.positions;
                     let body = surface.primitives(x, x);
                     let other = obstacle_surface.primitives(y, y);
+                    let broad = std::time::Instant::now();
                     let candidates = cross_candidates(&body, &other, reach);
+                    broad_seconds += broad.elapsed().as_secs_f64();
                     let rest_y = spec.obstacle.positions_at(0.0);
                     let mut found: Vec<(f64, Option<Pair>)> = candidates
                         .point_triangle
@@ -678,6 +706,7 @@ impl ContactTerm {
                         p.distance = distance;
                         (distance.sqrt(), Some(p))
                     }));
+                    examined += found.len();
                     for (gap, p) in found {
                         min_d = min_d.min(gap);
                         pairs.extend(p);
@@ -685,7 +714,12 @@ impl ContactTerm {
                 }
             }
         }
-        (pairs, min_d.is_finite().then_some(min_d))
+        (
+            pairs,
+            min_d.is_finite().then_some(min_d),
+            examined,
+            broad_seconds,
+        )
     }
 
     /// The rest positions of a body surface edge (the mollifier's threshold ε_x is a constant
@@ -698,8 +732,10 @@ impl ContactTerm {
     /// The largest fraction t ∈ (0, 1] of the move from x to x + dx that passes through no
     /// obstacle (conservative CCD; 1 when nothing is in the way).
     pub fn max_step(&self, x: &[Vec3], dx: &[Vec3]) -> f64 {
+        let started = std::time::Instant::now();
         let end: Vec<Vec3> = x.iter().zip(dx).map(|(x, d)| x + d).collect();
-        self.setup
+        let t = self
+            .setup
             .obstacles
             .iter()
             .zip(&self.placed)
@@ -714,7 +750,21 @@ impl ContactTerm {
                     placed,
                 )
             })
-            .fold(1.0, f64::min)
+            .fold(1.0, f64::min);
+        let mut costs = self.ccd_costs.lock().expect("not poisoned");
+        costs.0 += started.elapsed().as_secs_f64();
+        costs.1 += 1;
+        t
+    }
+
+    /// Where contact's time went so far (for `tetsim bench`).
+    pub fn costs(&self) -> ContactCosts {
+        let ccd = *self.ccd_costs.lock().expect("not poisoned");
+        ContactCosts {
+            ccd_seconds: ccd.0,
+            ccd_calls: ccd.1,
+            ..self.costs
+        }
     }
 }
 
@@ -843,7 +893,11 @@ impl Term for ContactTerm {
         force: &mut [Vec3],
         _partials: &mut [f64],
     ) -> f64 {
-        let (pairs, min_d) = self.collect_pairs(x);
+        let started = std::time::Instant::now();
+        let (pairs, min_d, examined, broad_seconds) = self.collect_pairs(x);
+        self.costs.broad_seconds += broad_seconds;
+        self.costs.barrier_seconds += started.elapsed().as_secs_f64() - broad_seconds;
+        self.costs.pairs_examined += examined;
         self.pairs = pairs;
         self.min_distance = min_d;
         let barrier_pairs = self.pairs.len();
