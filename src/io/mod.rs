@@ -18,6 +18,7 @@
 pub mod gmsh;
 pub mod medit;
 pub mod obj;
+pub mod pvd;
 pub mod stl;
 pub mod surface_vtu;
 pub mod tetgen;

@@ -1,0 +1,244 @@
+//! Where the obstacles stand during a step, how a moving obstacle carries the body's surface, and
+//! the conservative time of impact the line search and the pushes are limited by.
+
+use super::*;
+
+impl ContactTerm {
+    pub(super) fn place(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
+        // A still obstacle stays at ramp 0: it never has anywhere to go.
+        let ramps: Vec<f64> = self
+            .setup
+            .obstacles
+            .iter()
+            .map(|o| {
+                let still = o.obstacle.motion.translate == Vec3::zeros()
+                    && o.obstacle.motion.rotate_degrees == 0.0;
+                if still { 0.0 } else { ramp(o.duration) }
+            })
+            .collect();
+        self.place_at(&ramps);
+    }
+
+    /// Put every obstacle at its ramp factor.
+    pub(super) fn place_at(&mut self, ramps: &[f64]) {
+        self.placed = self
+            .setup
+            .obstacles
+            .iter()
+            .zip(ramps)
+            .map(|(spec, &s)| Placed {
+                positions: spec.obstacle.positions_at(s),
+                plane: spec.obstacle.plane_at(s),
+                sphere: spec.obstacle.sphere_at(s),
+            })
+            .collect();
+        self.ramp_now = ramps.to_vec();
+    }
+
+    /// The step's first guess: x (the predictor, moving from `xn`) cut back to what CCD finds
+    /// free of the obstacles where they stand, then the body's surface vertices that a moving
+    /// obstacle sweeps over this step carried along with it (their place relative to the
+    /// obstacle kept, for the free components), and the obstacles moved to where the step
+    /// ends. Rigid motions keep a carried vertex's gap, so the guess is feasible and Newton's
+    /// iterates never pass through; should the carried guess still touch an obstacle, the
+    /// obstacles stay where they stand and [`ContactTerm::advance_obstacles`] brings them on.
+    pub fn prepare_guess(&mut self, xn: &[Vec3], x: &mut [Vec3], free: &[Vec3]) {
+        let dx: Vec<Vec3> = x.iter().zip(xn).map(|(x, xn)| x - xn).collect();
+        let t = ContactTerm::max_step(self, xn, &dx);
+        if t < 1.0 {
+            // Prescribed components keep their prescribed values.
+            for (((x, xn), dx), m) in x.iter_mut().zip(xn).zip(&dx).zip(free) {
+                *x += (xn + t * dx - *x).component_mul(m);
+            }
+        }
+        if self.obstacles_arrived() {
+            return;
+        }
+        let before = x.to_vec();
+        let start = std::mem::take(&mut self.placed);
+        let start_ramps = self.ramp_now.clone();
+        let target = self.ramp_target.clone();
+        self.place_at(&target);
+        let params = CcdParams::default();
+        for (o, spec) in self.setup.obstacles.iter().enumerate() {
+            let (s0, s1) = (start_ramps[o], target[o]);
+            if s0 == s1 {
+                continue;
+            }
+            let (a, b) = (&start[o], &self.placed[o]);
+            let swept: Vec<usize> =
+                match (&spec.obstacle.shape, a.plane, b.plane, a.sphere, b.sphere) {
+                    (Shape::Plane { .. }, Some((o0, n)), Some((o1, _)), _, _) => self
+                        .surface
+                        .vertices
+                        .iter()
+                        .copied()
+                        .filter(|&v| {
+                            point_plane_ccd(&before[v], &before[v], &o0, &o1, &n, &params) < 1.0
+                        })
+                        .collect(),
+                    (Shape::Sphere { .. }, _, _, Some((c0, r)), Some((c1, _))) => self
+                        .surface
+                        .vertices
+                        .iter()
+                        .copied()
+                        .filter(|&v| {
+                            let p = [before[v]; 3];
+                            sphere_triangle_ccd(&c0, &c1, r, &p, &p, &params) < 1.0
+                        })
+                        .collect(),
+                    _ => {
+                        let os = spec.obstacle.contact_surface();
+                        let (y0, y1) = (&a.positions, &b.positions);
+                        let body = self.surface.primitives(&before, &before);
+                        let c = cross_candidates(&body, &os.primitives(y0, y1), self.dhat.sqrt());
+                        let mut swept: Vec<usize> = c
+                            .point_triangle
+                            .iter()
+                            .filter(|&&[v, f]| {
+                                let p = before[self.surface.vertices[v]];
+                                let (s, e) =
+                                    (os.faces[f].map(|i| y0[i]), os.faces[f].map(|i| y1[i]));
+                                point_triangle_ccd(
+                                    &[p, s[0], s[1], s[2]],
+                                    &[p, e[0], e[1], e[2]],
+                                    &params,
+                                ) < 1.0
+                            })
+                            .map(|&[v, _]| self.surface.vertices[v])
+                            .collect();
+                        swept.dedup();
+                        swept
+                    }
+                };
+            let motion = &spec.obstacle.motion;
+            for v in swept {
+                let carried = motion.apply(s1, &motion.unapply(s0, &before[v]));
+                x[v] += (carried - before[v]).component_mul(&free[v]);
+            }
+        }
+        if self.intersection(x).is_some() {
+            x.copy_from_slice(&before);
+            self.placed = start;
+            self.ramp_now = start_ramps;
+        }
+    }
+
+    /// Whether every obstacle is where the step ends.
+    pub fn obstacles_arrived(&self) -> bool {
+        self.ramp_now == self.ramp_target
+    }
+
+    /// Move the obstacles from where they are towards where the step ends, as far as continuous
+    /// collision detection against the body at x (held still) allows, and return the fraction
+    /// of the remaining move made. A moving obstacle pushes the body this way: Newton solves
+    /// with the obstacles part of the way, the barrier moves the body out of their path, and the
+    /// next call moves them on (IPC's kinematic obstacles without a penalty on their DOFs).
+    pub fn advance_obstacles(&mut self, x: &[Vec3]) -> f64 {
+        if self.obstacles_arrived() {
+            return 1.0;
+        }
+        let from = std::mem::take(&mut self.placed);
+        let from_ramps = self.ramp_now.clone();
+        let target = self.ramp_target.clone();
+        self.place_at(&target);
+        let t = self
+            .setup
+            .obstacles
+            .iter()
+            .zip(&from)
+            .zip(&self.placed)
+            .map(|((spec, a), b)| {
+                let shape = &spec.obstacle.shape;
+                time_of_impact(
+                    &self.surface,
+                    x,
+                    x,
+                    shape,
+                    spec.obstacle.contact_surface(),
+                    a,
+                    b,
+                )
+            })
+            .fold(1.0, f64::min);
+        if t < 1.0 {
+            let ramps: Vec<f64> = from_ramps
+                .iter()
+                .zip(&target)
+                .map(|(a, b)| a + t * (b - a))
+                .collect();
+            self.place_at(&ramps);
+        }
+        t
+    }
+}
+
+/// The conservative time of impact (0..=1) of the body's surface moving from `x0` to `x1`
+/// against one obstacle moving from `from` to `to` (planes and spheres may only translate
+/// within a step), by additive CCD over every vertex (planes), face (spheres) or broad-phase
+/// pair (boxes and meshes: point–triangle both ways and edge–edge).
+pub(super) fn time_of_impact(
+    surface: &ContactSurface,
+    x0: &[Vec3],
+    x1: &[Vec3],
+    shape: &Shape,
+    obstacle: &ContactSurface,
+    from: &Placed,
+    to: &Placed,
+) -> f64 {
+    let params = CcdParams::default();
+    match (shape, from.plane, to.plane, from.sphere, to.sphere) {
+        (Shape::Plane { .. }, Some((o0, n)), Some((o1, _)), _, _) => surface
+            .vertices
+            .par_iter()
+            .map(|&v| point_plane_ccd(&x0[v], &x1[v], &o0, &o1, &n, &params))
+            .reduce(|| 1.0, f64::min),
+        (Shape::Sphere { .. }, _, _, Some((c0, r)), Some((c1, _))) => surface
+            .faces
+            .par_iter()
+            .map(|f| {
+                sphere_triangle_ccd(&c0, &c1, r, &f.map(|v| x0[v]), &f.map(|v| x1[v]), &params)
+            })
+            .reduce(|| 1.0, f64::min),
+        _ => {
+            let (y0, y1) = (&from.positions, &to.positions);
+            let c = cross_candidates(
+                &surface.primitives(x0, x1),
+                &obstacle.primitives(y0, y1),
+                0.0,
+            );
+            let pt = c.point_triangle.par_iter().map(|&[v, f]| {
+                let v = surface.vertices[v];
+                let (s, e) = (
+                    obstacle.faces[f].map(|i| y0[i]),
+                    obstacle.faces[f].map(|i| y1[i]),
+                );
+                point_triangle_ccd(
+                    &[x0[v], s[0], s[1], s[2]],
+                    &[x1[v], e[0], e[1], e[2]],
+                    &params,
+                )
+            });
+            let tp = c.triangle_point.par_iter().map(|&[f, v]| {
+                let i = obstacle.vertices[v];
+                let face = surface.faces[f];
+                let (s, e) = (face.map(|k| x0[k]), face.map(|k| x1[k]));
+                point_triangle_ccd(
+                    &[y0[i], s[0], s[1], s[2]],
+                    &[y1[i], e[0], e[1], e[2]],
+                    &params,
+                )
+            });
+            let ee = c.edge_edge.par_iter().map(|&[ea, eb]| {
+                let [a0, a1] = surface.edges[ea];
+                let [b0, b1] = obstacle.edges[eb];
+                edge_edge_ccd(
+                    &[x0[a0], x0[a1], y0[b0], y0[b1]],
+                    &[x1[a0], x1[a1], y1[b0], y1[b1]],
+                    &params,
+                )
+            });
+            pt.chain(tp).chain(ee).reduce(|| 1.0, f64::min)
+        }
+    }
+}
