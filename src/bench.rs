@@ -203,12 +203,13 @@ fn with_ground(scene: Scene) -> Result<Scene> {
 
 /// Contact's figures of a finished run of `seconds`.
 fn contact_report(sim: &Simulation, seconds: f64) -> Option<ContactReport> {
-    let costs = sim.contact_costs()?;
+    let contact = sim.contact()?;
+    let costs = contact.costs();
     let surface = crate::contact::surface::ContactSurface::from_mesh(&sim.body.mesh);
     let primitives = surface.vertices.len().max(1) as f64;
     let examined = costs.pairs_examined.max(1) as f64;
     Some(ContactReport {
-        active_pairs: sim.newton_contact_pairs().unwrap_or_default(),
+        active_pairs: contact.active_pairs(),
         ns_per_pair_barrier: (costs.broad_seconds + costs.barrier_seconds) / examined * 1e9,
         ns_per_pair_broad: costs.broad_seconds / examined * 1e9,
         ns_per_primitive_ccd: costs.ccd_seconds / (costs.ccd_calls.max(1) as f64 * primitives)

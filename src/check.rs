@@ -709,18 +709,7 @@ fn hessian_product(
         HessianShape::Blocks if assembled => {
             let mut extra = Vec::new();
             term.extra_blocks(&mut extra);
-            let mut rows: Vec<Vec<u32>> = (0..n)
-                .map(|i| pattern.cols[pattern.row(i)].to_vec())
-                .collect();
-            for (i, j) in extra {
-                rows[i as usize].push(j);
-                rows[j as usize].push(i);
-            }
-            rows.iter_mut().for_each(|r| {
-                r.sort_unstable();
-                r.dedup()
-            });
-            let mut a = BlockCsr::zeros(crate::linear::sparse::BlockPattern::from_rows(&rows));
+            let mut a = BlockCsr::zeros(pattern.with_blocks(&extra));
             term.add_to_matrix(ctx, &mut a);
             a.multiply(u, &mut out);
         }

@@ -60,8 +60,6 @@ pub struct Simulation {
     /// between frames must not show up as energy created by the step.
     ledger_x: Vec<Vec3>,
     renumbering: Option<Renumbering>,
-    contact: Option<crate::contact::ContactSetup>,
-    contact_forces: Vec<Vec3>,
 }
 
 impl Simulation {
@@ -125,8 +123,6 @@ impl Simulation {
             params,
             state,
             renumbering: None,
-            contact: None,
-            contact_forces: Vec::new(),
         })
     }
 
@@ -140,42 +136,29 @@ impl Simulation {
     /// Turn contact on: rigid obstacles and the `[contact]` settings (SPEC §11). Refused when the
     /// initial state passes through an obstacle (the message names it and a vertex).
     pub fn with_contact(mut self, setup: crate::contact::ContactSetup) -> Result<Self> {
-        let term = crate::contact::term::ContactTerm::new(
-            setup.clone(),
-            &self.body.mesh,
-            self.body.masses(),
-        );
+        let term =
+            crate::contact::term::ContactTerm::new(setup, &self.body.mesh, self.body.masses());
         if let Some(message) = term.intersection(&self.state.x) {
             return Err(Error::parameter("obstacle", message));
         }
-        self.contact_forces = vec![Vec3::zeros(); self.body.vertex_count()];
         self.newton.potential_mut().contact = Some(term);
-        self.contact = Some(setup);
         Ok(self)
+    }
+
+    /// The contact term, when contact is on: its pairs, gaps, energy, forces and costs.
+    pub fn contact(&self) -> Option<&crate::contact::term::ContactTerm> {
+        self.newton.potential().contact.as_ref()
     }
 
     /// The contact setup, when contact is on.
     pub fn contact_setup(&self) -> Option<&crate::contact::ContactSetup> {
-        self.contact.as_ref()
+        self.contact().map(|c| c.setup())
     }
 
-    /// Active contact pairs at the last evaluation (None without contact).
-    pub fn newton_contact_pairs(&self) -> Option<usize> {
-        self.newton
-            .potential()
-            .contact
-            .as_ref()
-            .map(|c| c.active_pairs())
-    }
-
-    /// Where contact's time went so far (None without contact).
-    pub fn contact_costs(&self) -> Option<crate::contact::term::ContactCosts> {
-        self.newton.potential().contact.as_ref().map(|c| c.costs())
-    }
-
-    /// Contact forces on the vertices at the end of the last frame, N (empty without contact).
+    /// Contact forces on the vertices at the last evaluation (the end of the last frame), N
+    /// (empty without contact).
     pub fn contact_forces(&self) -> &[Vec3] {
-        &self.contact_forces
+        self.contact().map_or(&[], |c| c.forces())
     }
 
     /// The ramp factor s ∈ [0, 1] of a motion with `duration` (None: the whole run) at the
@@ -466,14 +449,7 @@ impl Simulation {
                     more.converged = true;
                     more.failure = None;
                 }
-                info.iterations += more.iterations;
-                info.cg_iterations += more.cg_iterations;
-                info.line_search_cuts += more.line_search_cuts;
-                info.residual = more.residual;
-                info.relative_residual = more.relative_residual;
-                info.converged = more.converged;
-                info.elastic_energy = more.elastic_energy;
-                info.failure = more.failure;
+                info.then(more);
             }
             stats.absorb(&info);
             if let Some(contact) = &self.newton.potential().contact {
@@ -481,7 +457,6 @@ impl Simulation {
                 stats.min_distance = contact.min_distance();
                 stats.contact_energy = contact.energy();
                 stats.friction_dissipation += contact.friction_dissipation();
-                self.contact_forces.copy_from_slice(contact.forces());
             }
             self.state.t = t;
             let finite = self

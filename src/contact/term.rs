@@ -154,6 +154,11 @@ impl ContactTerm {
         term
     }
 
+    /// The obstacles and settings this term was made from.
+    pub fn setup(&self) -> &ContactSetup {
+        &self.setup
+    }
+
     /// d̂ (m, unsquared).
     pub fn activation_distance(&self) -> f64 {
         self.dhat.sqrt()
@@ -290,9 +295,12 @@ impl ContactTerm {
                         .vertices
                         .par_iter()
                         .map(|&v| {
-                            let d = point_plane_distance_derivatives(&x[v], &origin, &normal);
                             let gap = super::distance::point_plane_gap(&x[v], &origin, &normal);
-                            (gap, (d.value < dhat).then(|| pair(&[Some(v)], &d, dhat)))
+                            let p = (gap * gap < dhat).then(|| {
+                                let d = point_plane_distance_derivatives(&x[v], &origin, &normal);
+                                pair(&[Some(v)], &d, dhat)
+                            });
+                            (gap, p)
                         })
                         .collect();
                     examined += found.len();
@@ -340,25 +348,28 @@ impl ContactTerm {
                         .map(|&[v, f]| {
                             let v = surface.vertices[v];
                             let [a, b, c] = obstacle_surface.faces[f].map(|i| y[i]);
-                            let d = point_triangle_distance_derivatives(&x[v], &a, &b, &c);
-                            let p = (d.value < dhat)
-                                .then(|| pair(&[Some(v), None, None, None], &d, dhat));
-                            (d.value.sqrt(), p)
+                            let d2 = super::distance::point_triangle_distance(&x[v], &a, &b, &c);
+                            let p = (d2 < dhat).then(|| {
+                                let d = point_triangle_distance_derivatives(&x[v], &a, &b, &c);
+                                pair(&[Some(v), None, None, None], &d, dhat)
+                            });
+                            (d2.sqrt(), p)
                         })
                         .collect();
                     found.par_extend(candidates.triangle_point.par_iter().map(|&[f, v]| {
                         let face = surface.faces[f];
                         let p = y[obstacle_surface.vertices[v]];
                         let [a, b, c] = face.map(|i| x[i]);
-                        let d = point_triangle_distance_derivatives(&p, &a, &b, &c);
-                        let q = (d.value < dhat).then(|| {
+                        let d2 = super::distance::point_triangle_distance(&p, &a, &b, &c);
+                        let q = (d2 < dhat).then(|| {
+                            let d = point_triangle_distance_derivatives(&p, &a, &b, &c);
                             pair(
                                 &[None, Some(face[0]), Some(face[1]), Some(face[2])],
                                 &d,
                                 dhat,
                             )
                         });
-                        (d.value.sqrt(), q)
+                        (d2.sqrt(), q)
                     }));
                     found.par_extend(candidates.edge_edge.par_iter().map(|&[ea, eb]| {
                         let [a0, a1] = surface.edges[ea];
@@ -378,7 +389,7 @@ impl ContactTerm {
                             &rest_y[b1],
                         );
                         let b = edge_edge_mollified_barrier(&ends, dhat, eps_x);
-                        let mut p = pair_of(&[Some(a0), Some(a1), None, None], &b);
+                        let mut p = pair_of(&[Some(a0), Some(a1), None, None], &b, true);
                         p.distance = distance;
                         (distance.sqrt(), Some(p))
                     }));
@@ -447,13 +458,14 @@ impl ContactTerm {
 /// A pair from distance derivatives over blocks (Some(body vertex) or None for obstacle
 /// points), barrier applied.
 fn pair<const N: usize>(blocks: &[Option<usize>], d: &Derivatives<N>, dhat: f64) -> Pair {
-    let mut p = pair_of(blocks, &barrier_derivatives(d, dhat));
+    let mut p = pair_of(blocks, &barrier_derivatives(d, dhat), true);
     p.distance = d.value;
     p
 }
 
-/// Keep the body blocks of a pair's derivatives (value, gradient, Hessian).
-fn pair_of<const N: usize>(blocks: &[Option<usize>], b: &Derivatives<N>) -> Pair {
+/// Keep the body blocks of a pair's derivatives (value, gradient, Hessian); `project` the
+/// Hessian to PSD (false where it is PSD already).
+fn pair_of<const N: usize>(blocks: &[Option<usize>], b: &Derivatives<N>, project: bool) -> Pair {
     let mut p = Pair {
         vertices: [0; 4],
         count: 0,
@@ -482,7 +494,11 @@ fn pair_of<const N: usize>(blocks: &[Option<usize>], b: &Derivatives<N>) -> Pair
         }
     }
     p.count = body.len();
-    p.projected = project_psd(&p.exact);
+    p.projected = if project {
+        project_psd(&p.exact)
+    } else {
+        p.exact
+    };
     p
 }
 
@@ -508,31 +524,24 @@ impl Term for ContactTerm {
         self.min_distance = min_d;
         let barrier_pairs = self.pairs.len();
         self.barrier_pairs = barrier_pairs;
-        // Friction pairs carry κ = 1 inside: they are scaled back below.
+        // Every stored pair carries its full scale: κ for the barrier's, 1 for friction's.
+        let kappa = self.kappa;
+        for p in &mut self.pairs {
+            p.energy *= kappa;
+            p.gradient *= kappa;
+            p.projected *= kappa;
+            p.exact *= kappa;
+        }
+        let energy: f64 = self.pairs.iter().map(|p| p.energy).sum();
         let (friction_energy, work, friction) = self.friction_pairs(x);
         self.friction_energy = friction_energy;
         self.dissipation = work;
-        let kappa = self.kappa;
-        self.pairs.extend(friction.into_iter().map(|mut p| {
-            p.energy /= kappa;
-            p.gradient /= kappa;
-            p.projected /= kappa;
-            p.exact /= kappa;
-            p
-        }));
+        self.pairs.extend(friction);
         self.forces.iter_mut().for_each(|f| *f = Vec3::zeros());
-        let mut energy = 0.0;
-        for p in &self.pairs[..barrier_pairs] {
-            energy += self.kappa * p.energy;
-        }
         for p in &self.pairs {
             for k in 0..p.count {
-                let g = Vec3::new(
-                    p.gradient[3 * k],
-                    p.gradient[3 * k + 1],
-                    p.gradient[3 * k + 2],
-                );
-                self.forces[p.vertices[k]] -= self.kappa * g;
+                let g = p.gradient.fixed_rows::<3>(3 * k);
+                self.forces[p.vertices[k]] -= g;
             }
         }
         for (f, c) in force.iter_mut().zip(&self.forces) {
@@ -562,7 +571,7 @@ impl Term for ContactTerm {
                 for l in 0..pair.count {
                     sum += block(h, k, l) * p[pair.vertices[l]];
                 }
-                out[pair.vertices[k]] += self.kappa * sum;
+                out[pair.vertices[k]] += sum;
             }
         }
     }
@@ -575,7 +584,7 @@ impl Term for ContactTerm {
                 &pair.projected
             };
             for k in 0..pair.count {
-                out[pair.vertices[k]] += self.kappa * block(h, k, k);
+                out[pair.vertices[k]] += block(h, k, k);
             }
         }
     }
@@ -594,7 +603,7 @@ impl Term for ContactTerm {
                         .pattern
                         .find(i, j)
                         .expect("obstacle pairs couple vertices of one face or edge");
-                    a.values[at] += self.kappa * block(h, k, l);
+                    a.values[at] += block(h, k, l);
                 }
             }
         }

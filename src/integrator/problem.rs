@@ -47,7 +47,15 @@ impl StepContext<'_> {
     /// Whether Newton minimises a potential (γ = 0 or quasistatic); with γ > 0 the damping
     /// force has none and the merit is ‖rhs‖.
     pub fn has_potential(&self) -> bool {
-        self.params.rayleigh_stiffness == 0.0 || matches!(self.kind, StepKind::Static)
+        self.stiffness_damping() == 0.0
+    }
+
+    /// γ of the damping force −γ·K(x)·v in this step (0 when static: no velocity).
+    pub fn stiffness_damping(&self) -> f64 {
+        match self.kind {
+            StepKind::Dynamic { .. } => self.params.rayleigh_stiffness,
+            StepKind::Static => 0.0,
+        }
     }
 }
 
@@ -109,8 +117,18 @@ impl IncrementalPotential {
             &mut self.external,
         ]
         .into_iter()
-        .chain(self.contact.iter_mut().map(|t| t as &mut dyn Term))
-        .chain(self.extra.iter_mut().map(|t| &mut **t as &mut dyn Term))
+        .chain(Self::later_terms(&mut self.contact, &mut self.extra))
+    }
+
+    /// The terms after the three built-in ones (contact, then the extra ones), in order.
+    fn later_terms<'a>(
+        contact: &'a mut Option<crate::contact::term::ContactTerm>,
+        extra: &'a mut [Box<dyn Term>],
+    ) -> impl Iterator<Item = &'a mut dyn Term> {
+        contact
+            .iter_mut()
+            .map(|t| t as &mut dyn Term)
+            .chain(extra.iter_mut().map(|t| &mut **t as &mut dyn Term))
     }
 
     /// The largest fraction of the move x → x + dx every term allows (see [`Term::max_step`]).
@@ -197,18 +215,7 @@ impl IncrementalPotential {
         let pattern = if self.scratch_pairs.is_empty() {
             base.clone()
         } else {
-            let mut rows: Vec<Vec<u32>> = (0..base.rows())
-                .map(|i| base.cols[base.row(i)].to_vec())
-                .collect();
-            for &(i, j) in &self.scratch_pairs {
-                rows[i as usize].push(j);
-                rows[j as usize].push(i);
-            }
-            for row in &mut rows {
-                row.sort_unstable();
-                row.dedup();
-            }
-            BlockPattern::from_rows(&rows)
+            base.with_blocks(&self.scratch_pairs)
         };
         let unchanged = self.pattern.as_ref().is_some_and(|(p, _)| *p == pattern);
         if !unchanged {
@@ -283,13 +290,10 @@ impl System for Problem<'_, '_> {
         // Elasticity lays the matrix down (its pass over each row zeroes the row first), the
         // other block terms add to it, the lumped diagonal comes last.
         let ctx = self.ctx;
-        self.potential.elasticity.write_matrix(ctx, a);
-        if let Some(contact) = &mut self.potential.contact
-            && contact.hessian_shape(ctx) == HessianShape::Blocks
-        {
-            contact.add_to_matrix(ctx, a);
-        }
-        for term in self.potential.extra.iter_mut() {
+        let p = &mut *self.potential;
+        p.elasticity.write_matrix(ctx, a);
+        // Inertia is diagonal and the loads have no Hessian: the block terms after elasticity.
+        for term in IncrementalPotential::later_terms(&mut p.contact, &mut p.extra) {
             if term.hessian_shape(ctx) == HessianShape::Blocks {
                 term.add_to_matrix(ctx, a);
             }

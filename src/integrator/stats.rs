@@ -35,6 +35,27 @@ pub struct NewtonInfo {
     pub timings: Timings,
 }
 
+impl NewtonInfo {
+    /// Fold in a follow-up solve of the same step (a moving obstacle's next push): counts and
+    /// times add up, the history goes on, and the outcome is the follow-up's.
+    pub fn then(&mut self, more: NewtonInfo) {
+        self.iterations += more.iterations;
+        self.cg_iterations += more.cg_iterations;
+        self.line_search_cuts += more.line_search_cuts;
+        self.cg_breakdowns += more.cg_breakdowns;
+        self.cg_capped += more.cg_capped;
+        self.projected_fallbacks += more.projected_fallbacks;
+        self.clamped_tets = self.clamped_tets.max(more.clamped_tets);
+        self.residual = more.residual;
+        self.relative_residual = more.relative_residual;
+        self.converged = more.converged;
+        self.elastic_energy = more.elastic_energy;
+        self.failure = more.failure;
+        self.history.extend(more.history);
+        self.timings.add(&more.timings);
+    }
+}
+
 /// Wall-clock seconds by phase, for `tetsim bench` and tuning.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Timings {

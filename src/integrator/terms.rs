@@ -211,7 +211,7 @@ impl Elasticity {
     /// The scale of K in the Newton matrix: 1 + γ/h (dynamic) or 1.
     fn scale(ctx: &StepContext<'_>) -> f64 {
         match ctx.kind {
-            StepKind::Dynamic { h, .. } => 1.0 + ctx.params.rayleigh_stiffness / h,
+            StepKind::Dynamic { h, .. } => 1.0 + ctx.stiffness_damping() / h,
             StepKind::Static => 1.0,
         }
     }
@@ -232,10 +232,7 @@ impl Term for Elasticity {
     ) -> f64 {
         let body = ctx.body;
         self.energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
-        let gamma = match ctx.kind {
-            StepKind::Dynamic { .. } => ctx.params.rayleigh_stiffness,
-            StepKind::Static => 0.0,
-        };
+        let gamma = ctx.stiffness_damping();
         let f_el = &self.f_el;
         if gamma != 0.0 {
             body.apply_stiffness(&mut self.lin, v, &mut self.kv);

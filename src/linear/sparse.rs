@@ -56,6 +56,22 @@ impl BlockPattern {
         BlockPattern { row_start, cols }
     }
 
+    /// This pattern with the blocks (i, j) and (j, i) of every pair added (contact couplings).
+    pub fn with_blocks(&self, pairs: &[(u32, u32)]) -> Self {
+        let mut rows: Vec<Vec<u32>> = (0..self.rows())
+            .map(|i| self.cols[self.row(i)].to_vec())
+            .collect();
+        for &(i, j) in pairs {
+            rows[i as usize].push(j);
+            rows[j as usize].push(i);
+        }
+        for row in &mut rows {
+            row.sort_unstable();
+            row.dedup();
+        }
+        Self::from_rows(&rows)
+    }
+
     /// Number of rows.
     pub fn rows(&self) -> usize {
         self.row_start.len() - 1

@@ -195,31 +195,20 @@ impl RenderParams {
         if !(self.up.norm() > 0.0 && self.up.iter().all(|c| c.is_finite())) {
             return bad("render.up", "must be a finite, non-zero vector".into());
         }
-        if let Some(plane) = &self.ground
-            && !(plane.normal.norm() > 0.0
-                && plane
-                    .normal
-                    .iter()
-                    .chain(plane.point.iter())
-                    .all(|c| c.is_finite()))
-        {
-            return bad(
-                "render.ground",
-                "the plane needs a finite point and a non-zero normal".into(),
-            );
-        }
-        if let Some(plane) = &self.clip
-            && !(plane.normal.norm() > 0.0
-                && plane
-                    .normal
-                    .iter()
-                    .chain(plane.point.iter())
-                    .all(|c| c.is_finite()))
-        {
-            return bad(
-                "render.clip",
-                "the plane needs a finite point and a non-zero normal".into(),
-            );
+        for (key, plane) in [("render.ground", &self.ground), ("render.clip", &self.clip)] {
+            if let Some(plane) = plane
+                && !(plane.normal.norm() > 0.0
+                    && plane
+                        .normal
+                        .iter()
+                        .chain(plane.point.iter())
+                        .all(|c| c.is_finite()))
+            {
+                return bad(
+                    key,
+                    "the plane needs a finite point and a non-zero normal".into(),
+                );
+            }
         }
         Ok(())
     }

@@ -148,9 +148,8 @@ impl ContactTerm {
                     gradient: lag.pair.gradient(&dx, eps),
                     hessian: lag.pair.hessian(&dx, eps),
                 };
-                let mut p = pair_of(&lag.slots, &d);
                 // Already PSD (see `friction`): the exact Hessian is the projected one.
-                p.projected = p.exact;
+                let mut p = pair_of(&lag.slots, &d, false);
                 p.distance = f64::INFINITY;
                 (d.value, work, p)
             })
