@@ -30,6 +30,7 @@ impl Newton {
         let potential_merit = ctx.has_potential();
         // Never past what continuous collision detection finds free (1 without contact).
         let mut alpha = self.potential.max_step(ctx, x, &self.dx);
+        self.collision_limited = alpha < 1.0;
 
         let mut best: Option<(f64, f64)> = None; // (merit, alpha)
         // With γ > 0, the largest step on which the undamped incremental potential met Armijo.

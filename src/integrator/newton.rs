@@ -32,6 +32,9 @@ pub struct Newton {
     /// Whether a failed ‖rhs‖ line search may fall back on the potential (see
     /// [`Newton::set_last_resort`]).
     pub(super) last_resort: bool,
+    /// Whether continuous collision detection shortened the last line search's first trial
+    /// (contact only): such a step says nothing about the tangent's quality.
+    pub(super) collision_limited: bool,
 }
 
 /// Merit and residual of one evaluated iterate.
@@ -59,6 +62,7 @@ impl Newton {
             timings: Timings::default(),
             policy: TangentPolicy::new(params.definiteness),
             last_resort: true,
+            collision_limited: false,
         }
     }
 
@@ -130,6 +134,7 @@ impl Newton {
             ..Default::default()
         };
         self.timings = Timings::default();
+        self.collision_limited = false;
         // With contact the first residual can be small (a body coming to rest on an obstacle)
         // while the barrier's stiffness puts rounding far above a fraction of it: the tolerance
         // then also counts against the loads (‖f_ext‖, the weight), as users of the peers
@@ -174,7 +179,8 @@ impl Newton {
                 tolerance: eta,
                 max_iterations: params.cg.max_iterations,
             };
-            let mut exact = self.policy.wants_exact(&info.history, self.linearization());
+            let mut exact = !self.collision_limited
+                && self.policy.wants_exact(&info.history, self.linearization());
             self.potential.use_exact(exact);
             let breakdowns = info.cg_breakdowns;
             self.solve_linear(ctx, &cg_params, &mut info);

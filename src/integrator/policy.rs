@@ -35,7 +35,11 @@ impl TangentPolicy {
     /// Whether the next direction should use the exact tangent: under `adaptive`, once the last
     /// iterate reduced the residual by less than [`ADAPTIVE_STALL_RATIO`], while the projection
     /// clamped some tet and none is inverted (from tangled starts the exact Hessian leads to
-    /// folded minima, 2–2.6 edge lengths from rest where `teran` recovers).
+    /// folded minima, 2–2.6 edge lengths from rest where `teran` recovers). Newton asks only
+    /// after a full step: a step that continuous collision detection shortened is slow because
+    /// an obstacle is in the way, not because of the projection (the 41,472-tet beam landing on
+    /// the ground switched to the exact tangent at its second iterate, whose kept multigrid then
+    /// needed 3 → 97 CG iterations per solve: 0.361 s per frame against 0.229 s staying projected).
     pub fn wants_exact(&self, history: &[f64], lin: &Linearization) -> bool {
         let slow = match history {
             [.., before, last] => *last > ADAPTIVE_STALL_RATIO * before,
