@@ -217,7 +217,7 @@ mod tests {
                     duration: None,
                 })
                 .collect(),
-            params: Default::default(),
+            ..Default::default()
         }
     }
 

@@ -45,4 +45,26 @@ pub struct ContactSetup {
     pub obstacles: Vec<ObstacleSpec>,
     /// `[contact]`.
     pub params: ContactParams,
+    /// The deformable bodies sharing the mesh (SPEC §11 `[[body]]`): their names, body 0 first.
+    /// Empty means one unnamed body.
+    pub body_names: Vec<String>,
+    /// The body of every mesh vertex, in the mesh's (internal) vertex order. Empty means every
+    /// vertex is body 0. Body–body pairs always count; pairs inside one body only with
+    /// `params.self_contact`.
+    pub vertex_body: Vec<u32>,
+}
+
+impl ContactSetup {
+    /// The body of mesh vertex `v` (0 when the setup names no bodies).
+    pub fn body_of(&self, v: usize) -> u32 {
+        self.vertex_body.get(v).copied().unwrap_or(0)
+    }
+
+    /// The name of body `b` in messages ("body0" style when unnamed).
+    pub fn body_name(&self, b: u32) -> String {
+        self.body_names
+            .get(b as usize)
+            .cloned()
+            .unwrap_or_else(|| format!("body{b}"))
+    }
 }

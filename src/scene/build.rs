@@ -244,6 +244,7 @@ impl Scene {
                 friction: spec.friction,
                 self_contact: spec.self_contact,
             },
+            ..Default::default()
         }))
     }
 

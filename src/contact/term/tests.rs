@@ -44,7 +44,7 @@ fn contact_term_derivatives_match_finite_differences_for_every_shape() {
                 friction: None,
                 duration: None,
             }],
-            params: Default::default(),
+            ..Default::default()
         };
         let mut term = ContactTerm::new(setup, &mesh, &masses);
         term.kappa = 1.0;
