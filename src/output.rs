@@ -173,18 +173,23 @@ impl Recorder {
         if let Some(f) = &contact_force {
             point_data.push(("contact_force", Field::Vector(f)));
         }
+        let mut cell_data = vec![
+            ("J", Field::Scalar(&j)),
+            ("strain_energy_density", Field::Scalar(&psi)),
+            ("von_mises", Field::Scalar(&von_mises)),
+        ];
+        // Several bodies: which body each point and cell is (output order is body after body).
+        let bodies = sim.bodies();
+        let tags = (bodies.count() > 1).then(|| {
+            let as_f64 = |b: Vec<u32>| b.into_iter().map(f64::from).collect::<Vec<f64>>();
+            (as_f64(bodies.vertex_body()), as_f64(bodies.tet_body()))
+        });
+        if let Some((points, cells)) = &tags {
+            point_data.push(("body", Field::Scalar(points)));
+            cell_data.push(("body", Field::Scalar(cells)));
+        }
         let path = self.dir.join(&name);
-        write_vtu(
-            &path,
-            &x,
-            &tets,
-            &point_data,
-            &[
-                ("J", Field::Scalar(&j)),
-                ("strain_energy_density", Field::Scalar(&psi)),
-                ("von_mises", Field::Scalar(&von_mises)),
-            ],
-        )?;
+        write_vtu(&path, &x, &tets, &point_data, &cell_data)?;
         let mut files = vec![(name.clone(), crate::manifest::sha256_file(&path)?)];
         self.note(path);
         if self.write_obj {
@@ -194,7 +199,8 @@ impl Recorder {
             files.push((obj, crate::manifest::sha256_file(&path)?));
             self.note(path);
         }
-        if let Some(setup) = sim.contact_setup() {
+        // Bodies in contact without obstacles have no obstacle files.
+        if let Some(setup) = sim.contact_setup().filter(|s| !s.obstacles.is_empty()) {
             self.write_obstacles(sim, setup, &mut files)?;
         }
         self.frames.push(FrameFiles {

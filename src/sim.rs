@@ -60,6 +60,8 @@ pub struct Simulation {
     /// between frames must not show up as energy created by the step.
     ledger_x: Vec<Vec3>,
     renumbering: Option<Renumbering>,
+    /// Which vertices and tets (input order) belong to which body.
+    bodies: crate::mesh::bodies::Bodies,
 }
 
 impl Simulation {
@@ -96,6 +98,7 @@ impl Simulation {
         }
         let free = boundary.free_mask(n);
         let newton = Newton::new(&body, &params);
+        let bodies = crate::mesh::bodies::Bodies::single("body0", &body.mesh);
         let mut state = initial;
         // Constrained components start where their motion starts (ramp 0 is the identity, but a
         // component fixed in place must not drift with an initial velocity).
@@ -123,6 +126,7 @@ impl Simulation {
             params,
             state,
             renumbering: None,
+            bodies,
         })
     }
 
@@ -131,6 +135,18 @@ impl Simulation {
     pub fn with_renumbering(mut self, renumbering: Option<Renumbering>) -> Self {
         self.renumbering = renumbering;
         self
+    }
+
+    /// Name the bodies merged into this simulation's mesh (SPEC §11 `[[body]]`): outputs tag
+    /// every vertex and tet with its body.
+    pub fn with_bodies(mut self, bodies: crate::mesh::bodies::Bodies) -> Self {
+        self.bodies = bodies;
+        self
+    }
+
+    /// The bodies in the mesh, in input order (one, "body0", unless named).
+    pub fn bodies(&self) -> &crate::mesh::bodies::Bodies {
+        &self.bodies
     }
 
     /// Turn contact on: rigid obstacles and the `[contact]` settings (SPEC §11). Refused when the

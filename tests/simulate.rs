@@ -1566,7 +1566,7 @@ fn ground_contact(friction: Option<f64>) -> tetsim::contact::ContactSetup {
             friction,
             duration: None,
         }],
-        params: Default::default(),
+        ..Default::default()
     }
 }
 
@@ -1768,7 +1768,7 @@ fn moving_plate_presses_a_block_without_passing_through_it() {
                 },
             ),
         ],
-        params: Default::default(),
+        ..Default::default()
     };
     let mut sim = Simulation::from_scene(&scene)
         .unwrap()

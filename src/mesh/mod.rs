@@ -4,6 +4,7 @@
 //! on. Validation (finite coordinates, indices in range, no degenerate tets) happens here, once,
 //! so the physics never sees a NaN or a zero-volume tet.
 
+pub mod bodies;
 pub mod doctor;
 pub mod generate;
 pub mod ordering;

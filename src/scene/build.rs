@@ -16,9 +16,11 @@ use crate::mesh::generate::box_mesh;
 use crate::mesh::ordering::{Renumbering, VertexOrder};
 use crate::sim::{Simulation, State};
 
+use super::bodies::Membership;
 use super::locate::{Seg, key};
 use super::schema::{
-    Generator, IntegratorName, MotionSpec, OnFailureName, PreconditionerName, RegionSpec, Scene,
+    Generator, IntegratorName, MeshSpec, MotionSpec, OnFailureName, PreconditionerName, RegionSpec,
+    Scene,
 };
 
 impl Scene {
@@ -28,10 +30,11 @@ impl Scene {
         lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)
     }
 
-    /// Model and density of the i-th `[[volume]]`, with `[material]`'s values where it is silent.
+    /// Model and density of the i-th `[[volume]]`, with its body's `[material]` values where it
+    /// is silent.
     pub fn volume_material(&self, i: usize) -> std::result::Result<(Model, f64), String> {
         let v = &self.volume[i];
-        let m = &self.material;
+        let m = self.body_material(self.body_index(v.body.as_deref()));
         let own = v.youngs_modulus.is_some()
             || v.poisson_ratio.is_some()
             || v.mu.is_some()
@@ -39,7 +42,7 @@ impl Scene {
         let lame = if own {
             lame_from(v.youngs_modulus, v.poisson_ratio, v.mu, v.lambda)?
         } else {
-            self.lame()?
+            lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)?
         };
         let density = v.density.unwrap_or(m.density);
         if !(density > 0.0 && density.is_finite()) {
@@ -48,18 +51,23 @@ impl Scene {
         Ok((Model::new(v.model.unwrap_or(m.model), lame), density))
     }
 
-    /// Build the mesh: read the file or run the generator.
+    /// Build the mesh of `[mesh]` (body 0): read the file or run the generator.
     pub fn build_mesh(&self) -> Result<TetMesh> {
-        match (&self.mesh.file, &self.mesh.generator) {
+        self.build_mesh_spec(&self.mesh, &key!["mesh"])
+    }
+
+    /// Build the mesh `spec` describes (at key `at`, for messages).
+    pub(super) fn build_mesh_spec(&self, spec: &MeshSpec, at: &[Seg]) -> Result<TetMesh> {
+        match (&spec.file, &spec.generator) {
             (Some(file), _) => {
                 let path = self.resolve(file);
                 let read = crate::io::read_mesh_with(
                     &path,
                     crate::io::ReadOptions {
-                        force: self.mesh.force,
+                        force: self.mesh.force || spec.force,
                     },
                 )
-                .map_err(|e| self.unreadable(&key!["mesh", "file"], e))?;
+                .map_err(|e| self.unreadable(&[at, &key!["file"]].concat(), e))?;
                 log::info!(
                     "{}: {}",
                     path.display(),
@@ -73,7 +81,10 @@ impl Scene {
             (None, Some(Generator::Box { min, max, cells })) => {
                 Ok(box_mesh(Vec3::from(*min), Vec3::from(*max), *cells))
             }
-            (None, None) => Err(Error::parameter("mesh", "give a mesh file or a generator")),
+            (None, None) => Err(self.error_at(
+                &[at, &key!["file"]].concat(),
+                "give a mesh file or a generator",
+            )),
         }
     }
 
@@ -137,6 +148,17 @@ impl Scene {
         mesh: &TetMesh,
         renumbering: Option<&Renumbering>,
     ) -> Result<Boundary> {
+        self.build_boundary_of(mesh, renumbering, None)
+    }
+
+    /// [`Scene::build_boundary_renumbered`] on the merged mesh of several bodies: a region with
+    /// `body = "..."` keeps only that body's vertices.
+    pub(super) fn build_boundary_of(
+        &self,
+        mesh: &TetMesh,
+        renumbering: Option<&Renumbering>,
+        bodies: Option<&Membership>,
+    ) -> Result<Boundary> {
         let mut boundary = Boundary {
             gravity: Vec3::from(self.gravity),
             ..Default::default()
@@ -144,6 +166,7 @@ impl Scene {
         for (i, fixed) in self.fixed.iter().enumerate() {
             let vertices = region(&fixed.region, renumbering)
                 .select(mesh)
+                .and_then(|v| Membership::keep_vertices(bodies, fixed.body.as_deref(), v))
                 .map_err(|m| self.error_at(&key!["fixed", i, "region"], m))?;
             let mut components = [true; 3];
             if let Some(list) = &fixed.components {
@@ -164,6 +187,7 @@ impl Scene {
         for (i, spec) in self.load.iter().enumerate() {
             let vertices = region(&spec.region, renumbering)
                 .select(mesh)
+                .and_then(|v| Membership::keep_vertices(bodies, spec.body.as_deref(), v))
                 .map_err(|m| self.error_at(&key!["load", i, "region"], m))?;
             let mut load = if let Some(t) = spec.traction {
                 Load::traction(mesh, &vertices, Vec3::from(t))
@@ -179,9 +203,10 @@ impl Scene {
         Ok(boundary)
     }
 
-    /// True when the scene turns contact on: it has `[contact]` or an `[[obstacle]]`.
+    /// True when the scene turns contact on: it has `[contact]`, an `[[obstacle]]` or a
+    /// `[[body]]`.
     pub fn has_contact(&self) -> bool {
-        self.contact.is_some() || !self.obstacle.is_empty()
+        self.contact.is_some() || !self.obstacle.is_empty() || !self.body.is_empty()
     }
 
     /// What the scene asks of contact (None: no `[contact]`, no `[[obstacle]]`): the obstacles
@@ -271,19 +296,39 @@ impl Scene {
         body: &ElasticBody,
         renumbering: Option<&Renumbering>,
     ) -> Result<State> {
+        let whole = crate::mesh::bodies::Bodies::single("", &body.mesh);
+        self.initial_state_of(body, renumbering, &whole)
+    }
+
+    /// The initial state of the merged mesh of `bodies`: `[initial] positions` lists body 0's
+    /// vertices (in its file's order), every body starts with its own velocity.
+    pub(super) fn initial_state_of(
+        &self,
+        body: &ElasticBody,
+        renumbering: Option<&Renumbering>,
+        bodies: &crate::mesh::bodies::Bodies,
+    ) -> Result<State> {
         let mut state = Simulation::rest_state(body);
+        // Input order first, then into the internal numbering.
+        let mut x = match renumbering {
+            Some(r) => r.vertices_to_old(&state.x),
+            None => state.x.clone(),
+        };
+        let mut v = vec![Vec3::zeros(); x.len()];
         if let Some(file) = &self.initial.positions {
-            let x = crate::io::read_positions(&self.resolve(file), body.vertex_count())
+            let first = bodies.vertices(0);
+            let given = crate::io::read_positions(&self.resolve(file), first.len())
                 .map_err(|e| self.unreadable(&key!["initial", "positions"], e))?;
-            state.x = match renumbering {
-                Some(r) => r.to_new(&x),
-                None => x,
-            };
+            x[first].copy_from_slice(&given);
         }
-        state
-            .v
-            .iter_mut()
-            .for_each(|v| *v = Vec3::from(self.initial.velocity));
+        for b in 0..bodies.count() {
+            let velocity = self.body_velocity(b);
+            v[bodies.vertices(b)].iter_mut().for_each(|v| *v = velocity);
+        }
+        (state.x, state.v) = match renumbering {
+            Some(r) => (r.to_new(&x), r.to_new(&v)),
+            None => (x, v),
+        };
         Ok(state)
     }
 }
@@ -323,10 +368,12 @@ fn region(spec: &RegionSpec, renumbering: Option<&Renumbering>) -> Region {
 impl Simulation {
     /// Everything a scene describes, ready to step.
     pub fn from_scene(scene: &Scene) -> Result<Simulation> {
-        let file_mesh = scene.build_mesh()?;
+        let (file_mesh, bodies) = scene.build_bodies()?;
+        let generated =
+            scene.mesh.generator.is_some() && scene.body.iter().all(|b| b.mesh.generator.is_some());
         let order = match scene.mesh.reorder {
             // A generator's lattice order is already local (see `mesh::ordering`).
-            VertexOrder::Auto if scene.mesh.generator.is_some() => VertexOrder::None,
+            VertexOrder::Auto if generated => VertexOrder::None,
             order => order,
         };
         let renumbering = Renumbering::new(&file_mesh, order);
@@ -337,12 +384,26 @@ impl Simulation {
         let lame = scene.lame().map_err(|m| Error::parameter("material", m))?;
         let model = Model::new(scene.material.model, lame);
         let mesh_path = scene.mesh.file.as_ref().map(|f| scene.resolve(f));
-        let mut regions = Vec::with_capacity(scene.volume.len());
+        let membership = Membership::new(&bodies, renumbering.as_ref());
+        let mut regions = Vec::with_capacity(bodies.count() - 1 + scene.volume.len());
+        // Bodies after the first are material regions of the merged mesh; `[[volume]]`s after
+        // them, so that a volume inside a body overrides the body's material.
+        for (b, spec) in scene.body.iter().enumerate() {
+            let m = &spec.material;
+            let lame = lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)
+                .map_err(|e| scene.error_at(&key!["body", b, "material"], e))?;
+            regions.push(MaterialRegion {
+                model: Model::new(m.model, lame),
+                density: m.density,
+                tets: membership.tets_of(b as u32 + 1),
+            });
+        }
         for (i, volume) in scene.volume.iter().enumerate() {
             let (model, density) = scene
                 .volume_material(i)
                 .map_err(|m| scene.error_at(&key!["volume", i], m))?;
             let tets = select_tets(&volume.region, &mesh)
+                .and_then(|t| membership.keep_tets(volume.body.as_deref(), t))
                 .map_err(|m| scene.error_at(&key!["volume", i, "region"], m))?;
             regions.push(MaterialRegion {
                 model,
@@ -358,11 +419,17 @@ impl Simulation {
                 },
                 other => other,
             })?;
-        let boundary = scene.build_boundary_renumbered(&body.mesh, renumbering.as_ref())?;
-        let initial = scene.initial_state_renumbered(&body, renumbering.as_ref())?;
-        let contact = scene.contact_setup()?;
+        let boundary =
+            scene.build_boundary_of(&body.mesh, renumbering.as_ref(), Some(&membership))?;
+        let initial = scene.initial_state_of(&body, renumbering.as_ref(), &bodies)?;
+        let contact = scene.contact_setup()?.map(|setup| ContactSetup {
+            body_names: bodies.names.clone(),
+            vertex_body: membership.vertex_body.clone(),
+            ..setup
+        });
         let sim = Simulation::new(body, boundary, scene.solver_params(), initial)?
-            .with_renumbering(renumbering);
+            .with_renumbering(renumbering)
+            .with_bodies(bodies);
         match contact {
             Some(setup) => sim.with_contact(setup),
             None => Ok(sim),

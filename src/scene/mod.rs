@@ -15,6 +15,7 @@
 //!
 //! [`Simulation::from_scene`]: crate::sim::Simulation::from_scene
 
+mod bodies;
 mod build;
 pub(crate) mod locate;
 mod schema;
@@ -24,9 +25,9 @@ use std::fmt::Display;
 use std::path::{Path, PathBuf};
 
 pub use schema::{
-    BoxSpec, Component, ContactSpec, FixedSpec, Generator, InitialSpec, IntegratorName, LoadSpec,
-    MaterialSpec, MeshSpec, MotionSpec, ObstacleEntry, OnFailureName, OutputSpec, PlaneSpec,
-    PreconditionerName, RegionSpec, Scene, SolverSpec, SphereSpec, VolumeSpec,
+    BodySpec, BoxSpec, Component, ContactSpec, FixedSpec, Generator, InitialSpec, IntegratorName,
+    LoadSpec, MaterialSpec, MeshSpec, MotionSpec, ObstacleEntry, OnFailureName, OutputSpec,
+    PlaneSpec, PreconditionerName, RegionSpec, Scene, SolverSpec, SphereSpec, VolumeSpec,
 };
 
 use crate::error::{Error, Result};

@@ -43,6 +43,10 @@ pub struct Scene {
     /// `[output]`.
     #[serde(default)]
     pub output: OutputSpec,
+    /// `[[body]]`: more deformable bodies (SPEC §11); any of them turns contact on. Left out of
+    /// the manifest's parameters when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub body: Vec<BodySpec>,
     /// `[[obstacle]]`: rigid obstacles (SPEC §11); any of them turns contact on. Left out of
     /// the manifest's parameters when empty, so scenes without contact keep their bytes.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -65,6 +69,42 @@ fn default_gravity() -> [f64; 3] {
     [0.0, -9.81, 0.0]
 }
 
+fn one() -> f64 {
+    1.0
+}
+
+fn z_axis() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+/// `[[body]]`: another deformable body, with its own mesh, material, placement and velocity.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Name in messages, outputs and `body = "..."` keys. Default "body1", "body2", ...
+    pub name: Option<String>,
+    /// Its mesh: the keys of `[mesh]` (a file or a generator).
+    pub mesh: MeshSpec,
+    /// Its material: the keys of `[material]`.
+    #[serde(default)]
+    pub material: MaterialSpec,
+    /// Scale of the rest mesh about the origin (a change of units), > 0. Default 1.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Rotation of the (scaled) rest mesh about `axis` through its centroid, degrees.
+    #[serde(default)]
+    pub rotate_degrees: f64,
+    /// Rotation axis. Default [0, 0, 1].
+    #[serde(default = "z_axis")]
+    pub axis: [f64; 3],
+    /// Translation after scaling and rotating, m.
+    #[serde(default)]
+    pub translate: [f64; 3],
+    /// Initial velocity of its free vertices, m/s.
+    #[serde(default)]
+    pub velocity: [f64; 3],
+}
+
 /// `[mesh]`: a file or a generator (exactly one).
 #[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -82,6 +122,10 @@ pub struct MeshSpec {
     /// "random" (the worst case, for benchmarks).
     #[serde(default)]
     pub reorder: VertexOrder,
+    /// The body's name in messages, outputs and `body = "..."` keys (top-level `[mesh]` only).
+    /// Default "body0".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
 }
 
 /// Built-in mesh generators.
@@ -140,6 +184,9 @@ pub struct VolumeSpec {
     /// Which tets: `{ physical = "name" }` (the tets of a Gmsh physical volume), or a `box` /
     /// `plane` region (the tets whose centroid it holds).
     pub region: RegionSpec,
+    /// Only this body's part (its `[[body]] name` or `[mesh] name`). Default: every body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<String>,
     /// Constitutive model.
     pub model: Option<ModelKind>,
     /// Young's modulus, Pa.
@@ -301,6 +348,9 @@ pub enum Component {
 pub struct FixedSpec {
     /// Which vertices.
     pub region: RegionSpec,
+    /// Only this body's part (its `[[body]] name` or `[mesh] name`). Default: every body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<String>,
     /// Constrained components. Default all three.
     pub components: Option<Vec<Component>>,
     /// Prescribed motion. Default: held in place.
@@ -318,6 +368,9 @@ pub struct FixedSpec {
 pub struct LoadSpec {
     /// Which vertices (and the boundary faces among them).
     pub region: RegionSpec,
+    /// Only this body's part (its `[[body]] name` or `[mesh] name`). Default: every body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<String>,
     /// Force per unit rest area on the region's boundary faces, Pa.
     pub traction: Option<[f64; 3]>,
     /// Total force spread over the region's boundary faces by area (or its vertices), N.

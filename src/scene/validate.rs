@@ -31,7 +31,8 @@ pub(super) fn validate(scene: &Scene) -> Result<()> {
         problems: Vec::new(),
     };
     v.finite3(&key!["gravity"], scene.gravity, "m/s²");
-    v.mesh(&scene.mesh);
+    v.mesh(&key!["mesh"], &scene.mesh);
+    v.bodies();
     let m = &scene.material;
     v.elastic(
         &key!["material"],
@@ -65,6 +66,19 @@ struct Validator<'s> {
 }
 
 /// `base` followed by `tail`: a key path inside a table or an entry.
+/// Every body's name, body 0 first (defaults filled in).
+pub(super) fn body_names(scene: &Scene) -> Vec<String> {
+    std::iter::once(scene.mesh.name.clone().unwrap_or_else(|| "body0".into()))
+        .chain(
+            scene
+                .body
+                .iter()
+                .enumerate()
+                .map(|(i, b)| b.name.clone().unwrap_or_else(|| format!("body{}", i + 1))),
+        )
+        .collect()
+}
+
 fn join<'a>(base: &[Seg<'a>], tail: &[Seg<'a>]) -> Vec<Seg<'a>> {
     base.iter().chain(tail).copied().collect()
 }
@@ -127,15 +141,16 @@ impl Validator<'_> {
         }
     }
 
-    fn mesh(&mut self, mesh: &MeshSpec) {
+    /// A `[mesh]` or a `[[body]]`'s `mesh` (at `at`).
+    fn mesh(&mut self, at: &[Seg], mesh: &MeshSpec) {
         match (&mesh.file, &mesh.generator) {
             (Some(_), Some(_)) => self.fail(
-                &key!["mesh", "generator"],
+                &join(at, &key!["generator"]),
                 "give either file or generator, not both",
             ),
-            (None, None) => self.fail(&key!["mesh", "file"], "give a mesh file or a generator"),
+            (None, None) => self.fail(&join(at, &key!["file"]), "give a mesh file or a generator"),
             (None, Some(Generator::Box { min, max, cells })) => {
-                let base = key!["mesh", "generator", "box"];
+                let base = join(at, &key!["generator", "box"]);
                 self.finite3(&join(&base, &key!["min"]), *min, "m");
                 self.finite3(&join(&base, &key!["max"]), *max, "m");
                 if (0..3).any(|k| max[k] <= min[k] || max[k].is_nan() || min[k].is_nan()) {
@@ -226,6 +241,7 @@ impl Validator<'_> {
         }
         for (i, v) in volumes.iter().enumerate() {
             let base = key!["volume", i];
+            self.body_ref(&join(&base, &key!["body"]), v.body.as_ref());
             self.elastic(
                 &base,
                 [v.youngs_modulus, v.poisson_ratio, v.mu, v.lambda],
@@ -267,8 +283,86 @@ impl Validator<'_> {
         }
     }
 
+    /// The `[[body]]` entries: names unique and sane, a mesh, a material, a usable placement.
+    fn bodies(&mut self) {
+        let scene = self.scene;
+        let names = body_names(scene);
+        if let Some(name) = &scene.mesh.name {
+            self.name(&key!["mesh", "name"], name);
+        }
+        for (i, b) in scene.body.iter().enumerate() {
+            let base = key!["body", i];
+            let at = |k: &'static str| join(&base, &key![k]);
+            if let Some(name) = &b.name {
+                self.name(&at("name"), name);
+                if names[..=i].contains(name) {
+                    self.fail(
+                        &at("name"),
+                        format!("\"{name}\" names two bodies: every body needs its own name"),
+                    );
+                }
+            }
+            if b.mesh.name.is_some() {
+                self.fail(
+                    &join(&base, &key!["mesh", "name"]),
+                    "a [[body]] is named by its own name key, not its mesh's",
+                );
+            }
+            self.mesh(&at("mesh"), &b.mesh);
+            let m = &b.material;
+            self.elastic(
+                &at("material"),
+                [m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda],
+                Some(m.density),
+            );
+            self.positive(&at("scale"), b.scale, "a factor");
+            if !b.rotate_degrees.is_finite() {
+                self.fail(
+                    &at("rotate_degrees"),
+                    format!("must be finite (degrees), got {}", b.rotate_degrees),
+                );
+            }
+            self.finite3(&at("axis"), b.axis, "a direction");
+            if b.rotate_degrees != 0.0 && b.axis.iter().all(|&c| c == 0.0) {
+                self.fail(&at("axis"), "a rotation needs a nonzero axis");
+            }
+            self.finite3(&at("translate"), b.translate, "m");
+            self.finite3(&at("velocity"), b.velocity, "m/s");
+        }
+    }
+
+    /// A body name: not empty, printable, not absurdly long.
+    fn name(&mut self, key: &[Seg], name: &str) {
+        if name.trim().is_empty() || name.len() > 64 || name.chars().any(char::is_control) {
+            self.fail(
+                key,
+                "a name needs 1 to 64 printable characters (it is used in messages and outputs)",
+            );
+        }
+    }
+
+    /// A `body = "..."` reference of a region (at `key`) names a body of the scene.
+    fn body_ref(&mut self, key: &[Seg], body: Option<&String>) {
+        let Some(body) = body else { return };
+        let names = body_names(self.scene);
+        if !names.contains(body) {
+            self.fail(
+                key,
+                format!(
+                    "no body is named \"{body}\"; the scene's bodies are {}",
+                    names
+                        .iter()
+                        .map(|n| format!("\"{n}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            );
+        }
+    }
+
     fn fixed(&mut self, i: usize, fixed: &FixedSpec) {
         let base = key!["fixed", i];
+        self.body_ref(&join(&base, &key!["body"]), fixed.body.as_ref());
         self.region(&join(&base, &key!["region"]), &fixed.region);
         if let Some(m) = &fixed.motion {
             self.motion(&join(&base, &key!["motion"]), m);
@@ -381,6 +475,7 @@ impl Validator<'_> {
 
     fn load(&mut self, i: usize, load: &LoadSpec) {
         let base = key!["load", i];
+        self.body_ref(&join(&base, &key!["body"]), load.body.as_ref());
         self.region(&join(&base, &key!["region"]), &load.region);
         let forces = [
             ("traction", load.traction, "Pa"),

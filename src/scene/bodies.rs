@@ -1,0 +1,147 @@
+//! Building a scene of several bodies (SPEC §11 `[[body]]`): each body's mesh read or generated,
+//! checked with its own file ids, placed, and merged with the others into one mesh
+//! ([`Bodies::merge`]); regions with `body = "..."` filtered to that body.
+
+use crate::error::{Error, Result};
+use crate::math::Vec3;
+use crate::mesh::TetMesh;
+use crate::mesh::bodies::{Bodies, Placement};
+use crate::mesh::ordering::Renumbering;
+
+use super::locate::key;
+use super::schema::{MaterialSpec, Scene};
+use super::validate::body_names;
+
+/// Which body each vertex and tet of the (possibly renumbered) simulation mesh belongs to.
+pub(crate) struct Membership {
+    names: Vec<String>,
+    /// Body of every vertex, internal order.
+    pub vertex_body: Vec<u32>,
+    /// Body of every tet, internal order.
+    pub tet_body: Vec<u32>,
+}
+
+impl Membership {
+    /// Membership on the mesh `renumbering` made of the merged mesh of `bodies`.
+    pub fn new(bodies: &Bodies, renumbering: Option<&Renumbering>) -> Self {
+        let (vertex_body, tet_body) = (bodies.vertex_body(), bodies.tet_body());
+        let (vertex_body, tet_body) = match renumbering {
+            Some(r) => (
+                r.to_new(&vertex_body),
+                r.tet_old.iter().map(|&t| tet_body[t]).collect(),
+            ),
+            None => (vertex_body, tet_body),
+        };
+        Membership {
+            names: bodies.names.clone(),
+            vertex_body,
+            tet_body,
+        }
+    }
+
+    fn index(&self, body: &str) -> std::result::Result<u32, String> {
+        self.names
+            .iter()
+            .position(|n| n == body)
+            .map(|b| b as u32)
+            .ok_or_else(|| format!("no body is named \"{body}\""))
+    }
+
+    /// The vertices of `selected` in `body` (all of them without a body), refused when none is.
+    pub fn keep_vertices(
+        membership: Option<&Self>,
+        body: Option<&str>,
+        mut selected: Vec<usize>,
+    ) -> std::result::Result<Vec<usize>, String> {
+        let (Some(m), Some(body)) = (membership, body) else {
+            return Ok(selected);
+        };
+        let b = m.index(body)?;
+        selected.retain(|&v| m.vertex_body[v] == b);
+        if selected.is_empty() {
+            return Err(format!("the region selects no vertex of body \"{body}\""));
+        }
+        Ok(selected)
+    }
+
+    /// The tets of `selected` in `body` (all of them without a body), refused when none is.
+    pub fn keep_tets(
+        &self,
+        body: Option<&str>,
+        mut selected: Vec<usize>,
+    ) -> std::result::Result<Vec<usize>, String> {
+        let Some(body) = body else {
+            return Ok(selected);
+        };
+        let b = self.index(body)?;
+        selected.retain(|&t| self.tet_body[t] == b);
+        if selected.is_empty() {
+            return Err(format!("the region selects no tet of body \"{body}\""));
+        }
+        Ok(selected)
+    }
+
+    /// The tets of body `b` (ascending).
+    pub fn tets_of(&self, b: u32) -> Vec<usize> {
+        (0..self.tet_body.len())
+            .filter(|&t| self.tet_body[t] == b)
+            .collect()
+    }
+}
+
+impl Scene {
+    /// Every body's mesh, placed and merged (body 0, the `[mesh]`, first), with where each
+    /// body's vertices and tets went. One body: the `[mesh]` as it was read.
+    pub(super) fn build_bodies(&self) -> Result<(TetMesh, Bodies)> {
+        let names = body_names(self);
+        let first = self.build_mesh()?;
+        if self.body.is_empty() {
+            let bodies = Bodies::single(names[0].clone(), &first);
+            return Ok((first, bodies));
+        }
+        let checked = |mesh: TetMesh, file: Option<&std::path::PathBuf>| -> Result<TetMesh> {
+            mesh.validate().map_err(|problem| Error::Mesh {
+                path: file.map(|f| self.resolve(f)),
+                problem,
+            })?;
+            Ok(mesh)
+        };
+        let mut parts = vec![(names[0].clone(), checked(first, self.mesh.file.as_ref())?)];
+        for (i, spec) in self.body.iter().enumerate() {
+            let mut mesh = self.build_mesh_spec(&spec.mesh, &key!["body", i, "mesh"])?;
+            mesh = checked(mesh, spec.mesh.file.as_ref())?;
+            Placement {
+                scale: spec.scale,
+                rotate_degrees: spec.rotate_degrees,
+                axis: Vec3::from(spec.axis),
+                translate: Vec3::from(spec.translate),
+            }
+            .apply(&mut mesh);
+            parts.push((names[i + 1].clone(), mesh));
+        }
+        Ok(Bodies::merge(parts))
+    }
+
+    /// The `[material]` of body `b` (0: the top-level one).
+    pub(super) fn body_material(&self, b: usize) -> &MaterialSpec {
+        match b {
+            0 => &self.material,
+            b => &self.body[b - 1].material,
+        }
+    }
+
+    /// The index of the body named `name` (0 when None or unknown: `validate` refuses unknown
+    /// names).
+    pub(super) fn body_index(&self, name: Option<&str>) -> usize {
+        name.and_then(|n| body_names(self).iter().position(|m| m == n))
+            .unwrap_or(0)
+    }
+
+    /// The initial velocity of body `b`, m/s.
+    pub(super) fn body_velocity(&self, b: usize) -> Vec3 {
+        Vec3::from(match b {
+            0 => self.initial.velocity,
+            b => self.body[b - 1].velocity,
+        })
+    }
+}

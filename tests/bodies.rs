@@ -1,0 +1,202 @@
+//! Several bodies in one scene (SPEC §11 `[[body]]`): built with their own meshes, materials,
+//! placements and velocities; regions restricted to a body; frames tagged with the body of every
+//! point and cell; bad entries refused at their line.
+
+use std::path::Path;
+use std::process::Command;
+
+use tetsim::io::{FieldData, read_vtu_frame};
+use tetsim::{Scene, Simulation, Vec3};
+
+fn parse(text: &str) -> tetsim::error::Result<Scene> {
+    Scene::parse(
+        text,
+        Path::new("bodies.toml"),
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+    )
+}
+
+/// Body 0 a 1×1×1 box of 2³ cells at the origin; a TetGen ball (scenes/meshes/ball) as "ball",
+/// scaled, moved and thrown; a third generated "slab".
+const THREE_BODIES: &str = r#"
+gravity = [0.0, 0.0, 0.0]
+[mesh]
+name = "cube"
+generator = { box = { min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0], cells = [2, 2, 2] } }
+[material]
+density = 1000.0
+[initial]
+velocity = [1.0, 0.0, 0.0]
+[[body]]
+name = "ball"
+mesh = { file = "scenes/meshes/ball.node" }
+material = { model = "corotated", youngs_modulus = 3e5, poisson_ratio = 0.3, density = 500.0 }
+scale = 0.5
+translate = [3.0, 0.0, 0.0]
+velocity = [-2.0, 0.0, 0.0]
+[[body]]
+name = "slab"
+mesh = { generator = { box = { min = [0.0, 0.0, 0.0], max = [2.0, 0.2, 1.0], cells = [4, 1, 2] } } }
+translate = [0.0, -1.0, 0.0]
+[[fixed]]
+region = { physical = "ymin" }
+body = "slab"
+[[volume]]
+region = { box = { min = [-9.0, -9.0, -9.0], max = [9.0, 9.0, 9.0] } }
+body = "cube"
+density = 2000.0
+[solver]
+dt = 0.01
+frames = 2
+"#;
+
+#[test]
+fn bodies_keep_their_meshes_materials_placements_and_velocities() {
+    let scene = parse(THREE_BODIES).unwrap();
+    let sim = Simulation::from_scene(&scene).unwrap();
+    let bodies = sim.bodies().clone();
+    assert_eq!(bodies.names, ["cube", "ball", "slab"]);
+    let ball = tetsim::io::read_mesh(Path::new("scenes/meshes/ball.node"))
+        .unwrap()
+        .mesh;
+    assert_eq!(bodies.vertices(0).len(), 27);
+    assert_eq!(bodies.vertices(1).len(), ball.positions.len());
+    assert_eq!(bodies.vertices(2).len(), 5 * 2 * 3);
+    assert_eq!(sim.body.vertex_count(), bodies.vertex_start[3]);
+
+    // Masses per body, by each body's density and volume: the cube's [[volume]] (2000) wins
+    // over [material] (1000); the ball (500) is scaled by 0.5.
+    let total = |b: usize| -> f64 {
+        let vertices = internal(&sim, b);
+        vertices.iter().map(|&v| sim.body.masses()[v]).sum()
+    };
+    assert!((total(0) - 2000.0).abs() < 1e-9, "{}", total(0));
+    let ball_volume: f64 = (0..ball.tets.len())
+        .map(|t| ball.signed_volume(t).abs())
+        .sum();
+    assert!((total(1) - 500.0 * 0.125 * ball_volume).abs() < 1e-9 * total(1));
+    assert!((total(2) - 1000.0 * 0.4).abs() < 1e-9);
+
+    // Placement: the ball scaled about the origin, then moved 3 along x.
+    let rest = &sim.body.mesh.positions;
+    let lo = internal(&sim, 1)
+        .iter()
+        .map(|&v| rest[v].x)
+        .fold(f64::INFINITY, f64::min);
+    let ball_lo = ball
+        .positions
+        .iter()
+        .map(|p| p.x)
+        .fold(f64::INFINITY, f64::min);
+    assert!((lo - (0.5 * ball_lo + 3.0)).abs() < 1e-12);
+
+    // Velocities per body; the fixed region took only the slab's ymin (not the cube's, which
+    // sits at y = 0 too).
+    for (b, velocity) in [(0, 1.0), (1, -2.0), (2, 0.0)] {
+        for v in internal(&sim, b) {
+            let free = sim.free_mask()[v];
+            let expected = Vec3::new(velocity, 0.0, 0.0).component_mul(&free);
+            assert_eq!(sim.state.v[v], expected, "body {b}, vertex {v}");
+        }
+    }
+    let fixed: Vec<usize> = (0..sim.body.vertex_count())
+        .filter(|&v| sim.free_mask()[v] == Vec3::zeros())
+        .collect();
+    assert_eq!(fixed.len(), 5 * 3);
+    assert!(fixed.iter().all(|v| internal(&sim, 2).contains(v)));
+}
+
+/// The internal (simulation) vertex ids of body `b`.
+fn internal(sim: &Simulation, b: usize) -> Vec<usize> {
+    let range = sim.bodies().vertices(b);
+    match sim.renumbering() {
+        Some(r) => range.map(|v| r.vertex_new[v]).collect(),
+        None => range.collect(),
+    }
+}
+
+#[test]
+fn frames_tag_every_point_and_cell_with_its_body() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = dir.path().join("bodies.toml");
+    let text = THREE_BODIES.replace(
+        "scenes/meshes/ball.node",
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes/meshes/ball.node")
+            .display()
+            .to_string(),
+    );
+    std::fs::write(&scene_path, text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_tetsim"))
+        .args(["run", "bodies.toml", "--out", "out", "--frames", "1", "-q"])
+        .args(["--no-pictures"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frame = read_vtu_frame(&dir.path().join("out/frame_0001.vtu")).unwrap();
+    let scene = parse(THREE_BODIES).unwrap();
+    let sim = Simulation::from_scene(&scene).unwrap();
+    let bodies = sim.bodies();
+    let values = |f: Option<&FieldData>| match f {
+        Some(FieldData::Scalar(v)) => v.clone(),
+        other => panic!("body data missing: {other:?}"),
+    };
+    let points = values(frame.point_field("body"));
+    let cells = values(frame.cell_field("body"));
+    let expect = |b: Vec<u32>| b.into_iter().map(f64::from).collect::<Vec<_>>();
+    assert_eq!(points, expect(bodies.vertex_body()));
+    assert_eq!(cells, expect(bodies.tet_body()));
+    // Without obstacles there are no obstacle files.
+    assert!(!dir.path().join("out/obstacles.pvd").exists());
+}
+
+#[test]
+fn bad_body_entries_are_refused_at_their_line() {
+    let cases: &[(&str, &str, &str)] = &[
+        (
+            "[[fixed]]\nregion = { physical = \"xmin\" }\nbody = \"nobody\"\n",
+            "no body is named \"nobody\"",
+            "body =",
+        ),
+        (
+            "[[body]]\nname = \"ball\"\nmesh = { generator = { box = { min = [5.0, 0.0, 0.0], max = [6.0, 1.0, 1.0], cells = [1, 1, 1] } } }\n",
+            "names two bodies",
+            "name =",
+        ),
+        (
+            "[[body]]\nmesh = { generator = { box = { min = [5.0, 0.0, 0.0], max = [6.0, 1.0, 1.0], cells = [1, 1, 1] } } }\nrotate_degrees = 45.0\naxis = [0.0, 0.0, 0.0]\n",
+            "nonzero axis",
+            "axis",
+        ),
+        (
+            "[[body]]\nmesh = { generator = { box = { min = [5.0, 0.0, 0.0], max = [6.0, 1.0, 1.0], cells = [1, 1, 1] } } }\nscale = -1.0\n",
+            "scale",
+            "scale",
+        ),
+        (
+            "[[body]]\nmesh = { file = \"no/such/mesh.msh\" }\n",
+            "no/such/mesh.msh",
+            "mesh",
+        ),
+    ];
+    for (extra, message, key) in cases {
+        let text = format!("{THREE_BODIES}{extra}");
+        let line = text.lines().count() - extra.lines().count()
+            + extra.lines().position(|l| l.contains(key)).unwrap()
+            + 1;
+        let error = match parse(&text).and_then(|s| Simulation::from_scene(&s).map(|_| ())) {
+            Ok(()) => panic!("accepted: {extra}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(error.contains(message), "{error}");
+        assert!(
+            error.contains(&format!("bodies.toml:{line}:")),
+            "expected line {line}: {error}"
+        );
+    }
+}
