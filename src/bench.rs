@@ -40,6 +40,43 @@ pub struct BenchParams {
     /// The contact workload: the same beam drooping onto a ground plane 0.5 mm below it
     /// (friction 0.3), contact active from the first frame.
     pub contact: bool,
+    /// Which scene: the cantilever (default) or a Contact II workload.
+    pub workload: Workload,
+}
+
+/// The scenes `tetsim bench` times.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Workload {
+    /// The issue-8 cantilever, 4n×n×n cubes (24n³ tets); `--contact` adds a ground plane.
+    #[default]
+    Beam,
+    /// Three soft blocks of n×n/2×n cubes stacked on the ground (9n³ tets; body–body contact):
+    /// `scenes/stack.toml` at size n. n = 18: 52k tets, n = 28: 198k.
+    Stack,
+    /// A beam of 16n×n×n cubes (96n³ tets) clamped at both ends, the right end turned four
+    /// times and moved in by a fifth over 2 s (200 frames of 0.01 s; self-contact once it coils,
+    /// so time it with `--frames 250`):
+    /// `scenes/coil.toml` at size n. n = 8: 49k tets, n = 13: 211k.
+    Coil,
+}
+
+impl Workload {
+    /// The name `--workload` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Workload::Beam => "beam",
+            Workload::Stack => "stack",
+            Workload::Coil => "coil",
+        }
+    }
+
+    /// The workload named `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Workload::Beam, Workload::Stack, Workload::Coil]
+            .into_iter()
+            .find(|w| w.name() == name)
+    }
 }
 
 impl Default for BenchParams {
@@ -51,6 +88,7 @@ impl Default for BenchParams {
             solver_overrides: String::new(),
             reorder: VertexOrder::default(),
             contact: false,
+            workload: Workload::Beam,
         }
     }
 }
@@ -115,6 +153,16 @@ pub struct ContactReport {
     pub ns_per_primitive_ccd: f64,
     /// Share of the run's wall time in contact (broad phase, barrier, CCD).
     pub share: f64,
+    /// Seconds per frame in the broad phase.
+    pub broad_seconds_per_frame: f64,
+    /// Seconds per frame evaluating and assembling barrier and friction pairs.
+    pub barrier_seconds_per_frame: f64,
+    /// Seconds per frame in CCD.
+    pub ccd_seconds_per_frame: f64,
+    /// Seconds per frame in the linear solves (preconditioner set-up, assembly and CG).
+    pub solve_seconds_per_frame: f64,
+    /// Peak resident memory of the process so far, MB.
+    pub peak_mb: f64,
 }
 
 /// What the sparse Cholesky preconditioner cost in the first run of a size.
@@ -149,6 +197,8 @@ pub struct BenchReport {
     pub solver_overrides: String,
     /// The vertex order used.
     pub reorder: VertexOrder,
+    /// The scene timed.
+    pub workload: Workload,
 }
 
 /// The workload scene for size n.
@@ -201,13 +251,138 @@ fn with_ground(scene: Scene) -> Result<Scene> {
     )
 }
 
-/// Contact's figures of a finished run of `seconds`.
-fn contact_report(sim: &Simulation, seconds: f64) -> Option<ContactReport> {
+/// Three soft blocks stacked on the ground at size n (see [`Workload::Stack`]).
+fn stack_scene(n: usize, frames: usize, solver_overrides: &str) -> Result<Scene> {
+    let text = stack_text(n, frames, solver_overrides);
+    Scene::parse(
+        &text,
+        std::path::Path::new("<bench stack workload>"),
+        std::path::Path::new("."),
+    )
+}
+
+fn stack_text(n: usize, frames: usize, solver_overrides: &str) -> String {
+    let half = (n / 2).max(1);
+    let block = |name: &str, size: f64, y: f64, degrees: f64, e: f64| {
+        format!(
+            "[[body]]\nname = \"{name}\"\nmesh = {{ generator = {{ box = {{ min = [{lo}, 0.0, {lo}], max = [{hi}, {h}, {hi}], cells = [{n}, {half}, {n}] }} }} }}\nmaterial = {{ youngs_modulus = {e}, poisson_ratio = 0.4, density = 1000.0 }}\nrotate_degrees = {degrees}\naxis = [0.0, 1.0, 0.0]\ntranslate = [0.0, {y}, 0.0]\n",
+            lo = -size / 2.0,
+            hi = size / 2.0,
+            h = size * (half as f64 / n as f64),
+        )
+    };
+    format!(
+        r#"
+gravity = [0.0, -9.81, 0.0]
+[mesh]
+name = "bottom"
+generator = {{ box = {{ min = [-0.15, 0.0, -0.15], max = [0.15, {h0}, 0.15], cells = [{n}, {half}, {n}] }} }}
+[material]
+youngs_modulus = 1e5
+poisson_ratio = 0.4
+density = 1000.0
+{middle}{top}
+[[obstacle]]
+name = "ground"
+plane = {{ point = [0.0, -0.001, 0.0], normal = [0.0, 1.0, 0.0] }}
+[contact]
+friction = 0.5
+[solver]
+dt = 0.01
+frames = {frames}
+rayleigh_mass = 2.0
+{solver_overrides}
+"#,
+        h0 = 0.3 * (half as f64 / n as f64),
+        middle = block(
+            "middle",
+            0.24,
+            0.3 * (half as f64 / n as f64) + 0.005,
+            20.0,
+            5e4
+        ),
+        top = block(
+            "top",
+            0.18,
+            (0.3 + 0.24) * (half as f64 / n as f64) + 0.01,
+            40.0,
+            2.5e4
+        ),
+    )
+}
+
+/// A beam twisted into a coil at size n (see [`Workload::Coil`]).
+fn coil_scene(n: usize, frames: usize, solver_overrides: &str) -> Result<Scene> {
+    // As scenes/coil.toml: the twist takes 2 s at 0.01 s per frame, so the turns touch from
+    // about frame 150 on (`--frames 250` times the coiled beam).
+    let dt = 0.01;
+    let text = format!(
+        r#"
+gravity = [0.0, 0.0, 0.0]
+[mesh]
+generator = {{ box = {{ min = [0.0, -0.03, -0.03], max = [1.0, 0.03, 0.03], cells = [{nx}, {n}, {n}] }} }}
+[material]
+youngs_modulus = 1e6
+poisson_ratio = 0.3
+density = 1000.0
+[[fixed]]
+region = {{ physical = "xmin" }}
+[[fixed]]
+region = {{ physical = "xmax" }}
+motion = {{ rotate_degrees = 1440.0, axis = [1.0, 0.0, 0.0], center = [1.0, 0.0, 0.0], translate = [-0.2, 0.0, 0.0] }}
+duration = {duration}
+[contact]
+friction = 0.0
+[solver]
+dt = {dt}
+frames = {frames}
+rayleigh_mass = 5.0
+{solver_overrides}
+"#,
+        nx = 16 * n,
+        duration = 2.0,
+    );
+    Scene::parse(
+        &text,
+        std::path::Path::new("<bench coil workload>"),
+        std::path::Path::new("."),
+    )
+}
+
+/// Start [`peak_resident_mb`] afresh (Linux ≥ 4.0: writing 5 to clear_refs resets the peak;
+/// elsewhere nothing happens and the peak counts from the start of the process).
+fn reset_peak_resident() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// Peak resident memory of this process since [`reset_peak_resident`], MB (Linux; 0
+/// elsewhere).
+pub fn peak_resident_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+/// Contact's figures of a finished run of `seconds` over `frames` frames, whose linear solves
+/// took `solve_seconds`.
+fn contact_report(
+    sim: &Simulation,
+    seconds: f64,
+    frames: usize,
+    solve_seconds: f64,
+) -> Option<ContactReport> {
     let contact = sim.contact()?;
     let costs = contact.costs();
     let surface = crate::contact::surface::ContactSurface::from_mesh(&sim.body.mesh);
     let primitives = surface.vertices.len().max(1) as f64;
     let examined = costs.pairs_examined.max(1) as f64;
+    let per = frames.max(1) as f64;
     Some(ContactReport {
         active_pairs: contact.active_pairs(),
         ns_per_pair_barrier: (costs.broad_seconds + costs.barrier_seconds) / examined * 1e9,
@@ -215,6 +390,11 @@ fn contact_report(sim: &Simulation, seconds: f64) -> Option<ContactReport> {
         ns_per_primitive_ccd: costs.ccd_seconds / (costs.ccd_calls.max(1) as f64 * primitives)
             * 1e9,
         share: (costs.broad_seconds + costs.barrier_seconds + costs.ccd_seconds) / seconds,
+        broad_seconds_per_frame: costs.broad_seconds / per,
+        barrier_seconds_per_frame: costs.barrier_seconds / per,
+        ccd_seconds_per_frame: costs.ccd_seconds / per,
+        solve_seconds_per_frame: solve_seconds / per,
+        peak_mb: peak_resident_mb(),
     })
 }
 
@@ -279,10 +459,19 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
     progress(&format!("STREAM triad: {stream:.1} GB/s"));
     let mut sizes = Vec::new();
     for &n in &params.sizes {
-        let mut scene = workload_scene(n, params.frames, &params.solver_overrides, params.reorder)?;
-        if params.contact {
-            scene = with_ground(scene)?;
-        }
+        let scene = match params.workload {
+            Workload::Beam => {
+                let scene =
+                    workload_scene(n, params.frames, &params.solver_overrides, params.reorder)?;
+                if params.contact {
+                    with_ground(scene)?
+                } else {
+                    scene
+                }
+            }
+            Workload::Stack => stack_scene(n, params.frames, &params.solver_overrides)?,
+            Workload::Coil => coil_scene(n, params.frames, &params.solver_overrides)?,
+        };
         let mut per_frame = Vec::new();
         let (mut newton, mut cg, mut frames) = (0usize, 0usize, 0usize);
         let mut timings = crate::integrator::Timings::default();
@@ -293,6 +482,9 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         let mut factor = None;
         let mut contact = None;
         for repeat in 0..params.repeats {
+            if repeat == 0 {
+                reset_peak_resident();
+            }
             let mut sim = Simulation::from_scene(&scene)?;
             tets = sim.body.tet_count();
             vertices = sim.body.vertex_count();
@@ -314,7 +506,12 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
                 wall = seconds;
                 report_mem = resident_mb();
                 factor = factor_report(&sim, params.frames);
-                contact = contact_report(&sim, seconds);
+                contact = contact_report(
+                    &sim,
+                    seconds,
+                    params.frames,
+                    timings.preconditioner + timings.cg,
+                );
             }
             per_frame.push(seconds / params.frames as f64);
             progress(&format!(
@@ -330,9 +527,10 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         let bytes_per_tet =
             operator_bytes_per_tet + cg_vector_bytes_per_vertex() * vertices as f64 / tets as f64;
         let achieved = bytes_per_tet * tets as f64 * cg as f64 / cg_seconds.max(1e-12) / 1e9;
+        let cantilever = params.workload == Workload::Beam && !params.contact;
         let vega = VEGAFEM
             .iter()
-            .find(|v| v.0 == n)
+            .find(|v| cantilever && v.0 == n)
             .map(|v| v.1 / seconds_per_frame);
         sizes.push(SizeReport {
             n,
@@ -365,6 +563,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         sizes,
         solver_overrides: params.solver_overrides.clone(),
         reorder: params.reorder,
+        workload: params.workload,
     })
 }
 
@@ -441,12 +640,17 @@ impl BenchReport {
             }
             if let Some(c) = &r.contact {
                 s.push_str(&format!(
-                    "     contact: {} active pairs, barrier {:.0} ns/pair (broad phase {:.0}), CCD {:.0} ns/primitive, {:.1} % of the time\n",
+                    "     contact: {} active pairs, barrier {:.0} ns/pair (broad phase {:.0}), CCD {:.0} ns/primitive, {:.1} % of the time\n     per frame: broad phase {:.4} s, barrier {:.4} s, CCD {:.4} s, linear solves {:.4} s; peak RSS {:.0} MB\n",
                     c.active_pairs,
                     c.ns_per_pair_barrier,
                     c.ns_per_pair_broad,
                     c.ns_per_primitive_ccd,
-                    100.0 * c.share
+                    100.0 * c.share,
+                    c.broad_seconds_per_frame,
+                    c.barrier_seconds_per_frame,
+                    c.ccd_seconds_per_frame,
+                    c.solve_seconds_per_frame,
+                    c.peak_mb
                 ));
             }
         }

@@ -29,6 +29,12 @@ pub struct BenchArgs {
     /// compare with the same sizes without it for the cost of contact.
     #[arg(long)]
     pub contact: bool,
+    /// The scene: beam (the cantilever, default), stack (three soft blocks on the ground,
+    /// 9n³ tets: n = 18 is 52k, 28 is 198k) or coil (a beam twisted until it coils, 96n³ tets:
+    /// n = 8 is 49k, 13 is 211k; it coils from about frame 150: use --frames 250); stack and coil
+    /// always have contact.
+    #[arg(long, default_value = "beam", value_parser = parse_workload)]
+    pub workload: bench::Workload,
     /// Print JSON instead of the table (to stdout), for comparing runs.
     #[arg(long)]
     pub json: bool,
@@ -49,6 +55,7 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         solver_overrides: args.solver,
         reorder: args.reorder,
         contact: args.contact,
+        workload: args.workload,
     };
     let report = bench::run(&params, |line| {
         if !quiet {
@@ -70,4 +77,9 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
 fn parse_order(name: &str) -> Result<VertexOrder, String> {
     VertexOrder::from_name(name)
         .ok_or_else(|| format!("{name:?}: expected auto, rcm, morton, none or random"))
+}
+
+fn parse_workload(name: &str) -> Result<bench::Workload, String> {
+    bench::Workload::from_name(name)
+        .ok_or_else(|| format!("{name:?}: expected beam, stack or coil"))
 }
