@@ -105,8 +105,6 @@ pub struct RecorderState {
     pub frames: Vec<FrameRecord>,
     /// steps.csv's length in bytes and the CRC-32 of those bytes.
     pub steps_csv: (u64, u32),
-    /// timings.csv's length in bytes.
-    pub timings_csv: u64,
 }
 
 impl Checkpoint {

@@ -124,7 +124,6 @@ impl Recorder {
                 .map(|f| (f.frame, f.time, f.files.clone()))
                 .collect(),
             steps_csv: (self.csv.len() as u64, crc32fast::hash(self.csv.as_bytes())),
-            timings_csv: self.timings.len() as u64,
         }
     }
 
@@ -159,9 +158,15 @@ impl Recorder {
             ));
         }
         r.csv = String::from_utf8_lossy(head).into_owned();
-        let timings = std::fs::read(dir.join("timings.csv")).unwrap_or_default();
-        if let Some(head) = timings.get(..saved.timings_csv as usize) {
-            r.timings = String::from_utf8_lossy(head).into_owned();
+        // timings.csv (wall-clock times, never in the checkpoint): its rows up to the frame.
+        let last = sim.frame();
+        let timings = std::fs::read_to_string(dir.join("timings.csv")).unwrap_or_default();
+        for row in timings.lines().skip(1) {
+            let frame = row.split(',').next().and_then(|f| f.parse::<usize>().ok());
+            if frame.is_some_and(|f| f <= last) {
+                r.timings.push_str(row);
+                r.timings.push('\n');
+            }
         }
         r.pvd.clone_from(&saved.pvd);
         r.frames = saved
@@ -176,14 +181,17 @@ impl Recorder {
         if let (Some(out), Some(pvd)) = (&mut r.contact, &saved.obstacles_pvd) {
             out.pvd.clone_from(pvd);
         }
-        let last = sim.frame();
         for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
             let path = entry.map_err(|e| Error::io(dir, e))?.path();
-            let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
-            if name
-                .and_then(|n| frame_number(&n))
-                .is_some_and(|k| k > last)
-            {
+            let name = path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            // Frames after the checkpoint's, and what a killed run left half-written.
+            let later = frame_number(&name).is_some_and(|k| k > last);
+            let stray = temporary_of(&name)
+                .is_some_and(|n| frame_number(n).is_some() || RUN_FILES.contains(&n));
+            if later || stray {
                 std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
             }
         }
@@ -517,6 +525,13 @@ pub fn frame_number(name: &str) -> Option<usize> {
         .flatten()
 }
 
+/// The file a temporary file of ours is for: `.NAME.PID.tmp` (see `io::atomic_write`) → NAME.
+fn temporary_of(name: &str) -> Option<&str> {
+    name.strip_prefix('.')
+        .and_then(|n| n.strip_suffix(".tmp"))
+        .and_then(|n| n.rsplit_once('.').map(|(b, _)| b))
+}
+
 /// Remove an earlier run's files from `dir` (numbered frames, [`RUN_FILES`] and leftover
 /// temporary files of ours), so that the folder never holds two runs. Other files stay.
 /// Returns how many were removed.
@@ -530,12 +545,7 @@ pub fn clear_previous_run(dir: &Path) -> Result<usize> {
     for entry in entries {
         let entry = entry.map_err(|e| Error::io(dir, e))?;
         let name = entry.file_name().to_string_lossy().into_owned();
-        // Our temporary files are `.NAME.PID.tmp` (see `io::atomic_write`).
-        let base = name
-            .strip_prefix('.')
-            .and_then(|n| n.strip_suffix(".tmp"))
-            .and_then(|n| n.rsplit_once('.').map(|(b, _)| b))
-            .unwrap_or(&name);
+        let base = temporary_of(&name).unwrap_or(&name);
         let ours = frame_number(base).is_some() || RUN_FILES.contains(&base);
         if ours && entry.file_type().is_ok_and(|t| t.is_file()) {
             let path = entry.path();

@@ -49,7 +49,7 @@ pub struct RunArgs {
 
 pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let stop = watch_signals()?;
-    let (scene, record, checkpoint) = match &args.resume {
+    let (scene, mut record, checkpoint) = match &args.resume {
         Some(dir) => resumed(dir, args.frames)?,
         None => fresh(&args)?,
     };
@@ -66,6 +66,10 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
 
     let mut sim = Simulation::from_scene(&scene)?;
+    if checkpoint.is_none() {
+        // After building: a missing file is reported at its scene key by the build.
+        record.inputs = tetsim::manifest::input_hashes(&scene)?.to_string();
+    }
     let mut warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
     for w in &warnings {
         log::warn!("{w}");
@@ -272,7 +276,7 @@ fn fresh(args: &RunArgs) -> anyhow::Result<(Scene, RunRecord, Option<Checkpoint>
         scene_path: scene.path.display().to_string(),
         scene_base: base.display().to_string(),
         scene_source: scene.source().to_string(),
-        inputs: tetsim::manifest::input_hashes(&scene)?.to_string(),
+        inputs: String::new(),
         out: out.display().to_string(),
         frames: scene.solver.frames,
         force: scene.mesh.force,
