@@ -83,6 +83,7 @@ pub mod audit;
 pub mod bench;
 pub mod boundary;
 pub mod check;
+pub mod checkpoint;
 pub mod contact;
 pub mod diagnose;
 pub mod elastic;

@@ -63,6 +63,10 @@ pub struct Recorder {
     written: Vec<PathBuf>,
     /// Set at the first frame: None without contact.
     contact: Option<ContactOutput>,
+    /// The output folder as the user named it, for the manifest.
+    named: Option<String>,
+    /// Problems the manifest reports (a picture that could not be drawn).
+    problems: Vec<String>,
 }
 
 /// What the recorder keeps when contact is on.
@@ -92,7 +96,125 @@ impl Recorder {
             frames: Vec::new(),
             written: Vec::new(),
             contact: None,
+            named: None,
+            problems: Vec::new(),
         })
+    }
+
+    /// Name the output folder in the manifest as the user named it (`--out`; default: the
+    /// path the recorder was made with).
+    pub fn named(mut self, name: impl Into<String>) -> Self {
+        self.named = Some(name.into());
+        self
+    }
+
+    /// Report a problem in the manifest (`problems`), e.g. pictures that could not be drawn.
+    pub fn note_problem(&mut self, problem: &str) {
+        self.problems.push(problem.to_string());
+    }
+
+    /// The bookkeeping a checkpoint stores (see [`crate::checkpoint::RecorderState`]).
+    pub fn snapshot(&self) -> crate::checkpoint::RecorderState {
+        crate::checkpoint::RecorderState {
+            pvd: self.pvd.clone(),
+            obstacles_pvd: self.contact.as_ref().map(|c| c.pvd.clone()),
+            frames: self
+                .frames
+                .iter()
+                .map(|f| (f.frame, f.time, f.files.clone()))
+                .collect(),
+            steps_csv: (self.csv.len() as u64, crc32fast::hash(self.csv.as_bytes())),
+        }
+    }
+
+    /// Take up a run in `dir` from its checkpoint's bookkeeping, `sim` being restored to the
+    /// checkpoint's frame: steps.csv and timings.csv are cut back to that frame (a frame written
+    /// after the checkpoint is written again), frames.pvd and obstacles.pvd rewritten, and the
+    /// files of later frames removed.
+    pub fn resume(
+        dir: &Path,
+        sim: &Simulation,
+        write_obj: bool,
+        saved: &crate::checkpoint::RecorderState,
+    ) -> Result<Self> {
+        let mut r = Recorder::create(dir, &sim.body, write_obj)?;
+        r.start(sim);
+        let steps = dir.join("steps.csv");
+        let text = std::fs::read(&steps).map_err(|e| Error::io(&steps, e))?;
+        let (len, crc) = saved.steps_csv;
+        let head = text.get(..len as usize).ok_or_else(|| {
+            Error::parameter(
+                "resume",
+                format!("{}: shorter than the checkpoint's frame", steps.display()),
+            )
+        })?;
+        if crc32fast::hash(head) != crc {
+            return Err(Error::parameter(
+                "resume",
+                format!(
+                    "{}: its rows up to the checkpoint's frame were changed since",
+                    steps.display()
+                ),
+            ));
+        }
+        r.csv = String::from_utf8_lossy(head).into_owned();
+        // timings.csv (wall-clock times, never in the checkpoint): its rows up to the frame.
+        let last = sim.frame();
+        let timings = std::fs::read_to_string(dir.join("timings.csv")).unwrap_or_default();
+        for row in timings.lines().skip(1) {
+            let frame = row.split(',').next().and_then(|f| f.parse::<usize>().ok());
+            if frame.is_some_and(|f| f <= last) {
+                r.timings.push_str(row);
+                r.timings.push('\n');
+            }
+        }
+        r.pvd.clone_from(&saved.pvd);
+        r.frames = saved
+            .frames
+            .iter()
+            .map(|(frame, time, files)| FrameFiles {
+                frame: *frame,
+                time: *time,
+                files: files.clone(),
+            })
+            .collect();
+        if let (Some(out), Some(pvd)) = (&mut r.contact, &saved.obstacles_pvd) {
+            out.pvd.clone_from(pvd);
+        }
+        for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+            let path = entry.map_err(|e| Error::io(dir, e))?.path();
+            let name = path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            // Frames after the checkpoint's, and what a killed run left half-written.
+            let later = frame_number(&name).is_some_and(|k| k > last);
+            let stray = temporary_of(&name)
+                .is_some_and(|n| frame_number(n).is_some() || RUN_FILES.contains(&n));
+            if later || stray {
+                std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+            }
+        }
+        let names: Vec<PathBuf> = r
+            .frames
+            .iter()
+            .flat_map(|f| f.files.iter().map(|(name, _)| dir.join(name)))
+            .collect();
+        names.into_iter().for_each(|path| r.note(path));
+        let csv = &r.csv;
+        atomic_write(&steps, |w| w.write_all(csv.as_bytes()))?;
+        let timings = &r.timings;
+        atomic_write(&dir.join("timings.csv"), |w| {
+            w.write_all(timings.as_bytes())
+        })?;
+        write_pvd(&dir.join("frames.pvd"), &r.pvd)?;
+        if let Some(out) = &r.contact {
+            write_pvd(&dir.join("obstacles.pvd"), &out.pvd)?;
+        }
+        for name in ["frames.pvd", "steps.csv", "timings.csv"] {
+            r.note(dir.join(name));
+        }
+        Ok(r)
     }
 
     /// Write 0 in steps.csv's wall_seconds column (the times still go to timings.csv), so that
@@ -286,6 +408,8 @@ impl Recorder {
         let manifest = serde_json::json!({
             "tetsim_version": env!("CARGO_PKG_VERSION"),
             "status": status,
+            "frame": self.frames.last().map(|f| f.frame),
+            "output_dir": self.named.clone().unwrap_or_else(|| self.dir.display().to_string()),
             "deterministic": self.deterministic,
             "determinism": DETERMINISM_NOTE,
             "scene": {
@@ -296,6 +420,10 @@ impl Recorder {
             "parameters": resolved_parameters(scene, sim)?,
             "outputs": { "files": collected, "frames": frames },
         });
+        let mut manifest = manifest;
+        if !self.problems.is_empty() {
+            manifest["problems"] = self.problems.clone().into();
+        }
         let text = serde_json::to_string_pretty(&manifest)
             .map_err(|e| Error::parameter("manifest", e.to_string()))?;
         let path = self.dir.join("manifest.json");
@@ -365,6 +493,73 @@ impl Recorder {
             self.written.push(path);
         }
     }
+}
+
+/// The names of every file a tetsim run writes into its output folder, besides numbered frames.
+pub const RUN_FILES: &[&str] = &[
+    "frames.pvd",
+    "obstacles.pvd",
+    "steps.csv",
+    "timings.csv",
+    "probes.csv",
+    "reactions.csv",
+    "manifest.json",
+    crate::checkpoint::FILE_NAME,
+    "preview.png",
+    "animation.gif",
+    "steps_newton.png",
+    "steps_cg.png",
+    "steps_residual.png",
+    "steps_energy.png",
+];
+
+/// The frame number of a numbered output file (`frame_0012.vtu` → 12; also `.pvtu`,
+/// `surface_NNNN.obj` and `obstacles_NNNN.vtu`), None for any other name.
+pub fn frame_number(name: &str) -> Option<usize> {
+    let (stem, ext) = name.rsplit_once('.')?;
+    let digits = match ext {
+        "vtu" | "pvtu" => stem
+            .strip_prefix("frame_")
+            .or_else(|| stem.strip_prefix("obstacles_"))?,
+        "obj" => stem.strip_prefix("surface_")?,
+        _ => return None,
+    };
+    // A piece of a split frame (frame_0012_3.vtu) belongs to frame 12.
+    let digits = digits.split('_').next()?;
+    (digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit()))
+        .then(|| digits.parse().ok())
+        .flatten()
+}
+
+/// The file a temporary file of ours is for: `.NAME.PID.tmp` (see `io::atomic_write`) → NAME.
+fn temporary_of(name: &str) -> Option<&str> {
+    name.strip_prefix('.')
+        .and_then(|n| n.strip_suffix(".tmp"))
+        .and_then(|n| n.rsplit_once('.').map(|(b, _)| b))
+}
+
+/// Remove an earlier run's files from `dir` (numbered frames, [`RUN_FILES`] and leftover
+/// temporary files of ours), so that the folder never holds two runs. Other files stay.
+/// Returns how many were removed.
+pub fn clear_previous_run(dir: &Path) -> Result<usize> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(Error::io(dir, e)),
+    };
+    let mut removed = 0;
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let base = temporary_of(&name).unwrap_or(&name);
+        let ours = frame_number(base).is_some() || RUN_FILES.contains(&base);
+        if ours && entry.file_type().is_ok_and(|t| t.is_file()) {
+            let path = entry.path();
+            std::fs::remove_file(&path).map_err(|e| Error::io(&path, e))?;
+            removed += 1;
+        }
+    }
+    Ok(removed)
 }
 
 /// One steps.csv row (with the contact columns when `contact`).

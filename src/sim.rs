@@ -62,6 +62,9 @@ pub struct Simulation {
     renumbering: Option<Renumbering>,
     /// Which vertices and tets (input order) belong to which body.
     bodies: crate::mesh::bodies::Bodies,
+    /// Frames the motions and loads ramp over when not `params.frames` (a resumed run taken
+    /// further than it was started for keeps its ramps).
+    ramp_frames: Option<usize>,
 }
 
 impl Simulation {
@@ -127,6 +130,7 @@ impl Simulation {
             state,
             renumbering: None,
             bodies,
+            ramp_frames: None,
         })
     }
 
@@ -183,12 +187,18 @@ impl Simulation {
         self.clock_at(self.state.t).ramp(duration)
     }
 
+    /// Frames the motions and loads ramp over: the run's frames unless a resumed run was taken
+    /// further ([`Simulation::restore`]).
+    pub fn ramp_frames(&self) -> usize {
+        self.ramp_frames.unwrap_or(self.params.frames)
+    }
+
     /// The boundary clock at time (or load factor) t.
     fn clock_at(&self, t: f64) -> Clock {
         match self.params.integrator {
             Integrator::BackwardEuler => Clock::Time {
                 time: t,
-                run_duration: self.params.dt * self.params.frames as f64,
+                run_duration: self.params.dt * self.ramp_frames() as f64,
             },
             Integrator::Quasistatic => Clock::LoadFactor(t),
         }
@@ -357,6 +367,81 @@ impl Simulation {
         Ok(all)
     }
 
+    /// The state after the last frame, for a checkpoint: everything the next frame reads that
+    /// the scene does not give (see [`crate::checkpoint`]).
+    pub fn snapshot(&self) -> crate::checkpoint::SimulationState {
+        use crate::linear::state::vectors_out;
+        crate::checkpoint::SimulationState {
+            frame: self.frame,
+            t: self.state.t,
+            x: vectors_out(&self.state.x),
+            v: vectors_out(&self.state.v),
+            free: vectors_out(&self.free),
+            ledger: (
+                self.ledger.elastic,
+                vectors_out(&self.ledger.loads),
+                vectors_out(&self.ledger.reactions),
+            ),
+            ramp_frames: self.ramp_frames(),
+            pattern_generation: self.newton.potential().pattern_generation(),
+            solver: self.newton.solver_state(),
+            contact: self.contact().map(|c| c.saved_state()),
+        }
+    }
+
+    /// Continue from a [`Simulation::snapshot`] of a simulation made from the same scene; the
+    /// frames to run (`params.frames`) may have grown since, the ramps keep the snapshot's.
+    pub fn restore(&mut self, saved: &crate::checkpoint::SimulationState) -> Result<()> {
+        use crate::linear::state::vectors_in;
+        let n = self.body.vertex_count();
+        let fits = |v: &Vec<[f64; 3]>| v.len() == n;
+        if !(fits(&saved.x)
+            && fits(&saved.v)
+            && fits(&saved.free)
+            && fits(&saved.ledger.1)
+            && fits(&saved.ledger.2))
+        {
+            return Err(Error::parameter(
+                "resume",
+                format!("the checkpoint's state does not fit the scene's mesh of {n} vertices"),
+            ));
+        }
+        if saved.contact.is_some() != self.contact().is_some() {
+            return Err(Error::parameter(
+                "resume",
+                "the checkpoint and the scene disagree on contact",
+            ));
+        }
+        self.newton
+            .restore_solver_state(&saved.solver, &self.body.mesh.positions)
+            .map_err(|e| Error::parameter("resume", e))?;
+        self.newton
+            .potential_mut()
+            .restore_pattern_generation(saved.pattern_generation);
+        if let (Some(state), Some(contact)) =
+            (&saved.contact, &mut self.newton.potential_mut().contact)
+        {
+            contact.restore_state(state);
+        }
+        self.state = State {
+            x: vectors_in(&saved.x),
+            v: vectors_in(&saved.v),
+            t: saved.t,
+        };
+        self.free = vectors_in(&saved.free);
+        self.ledger = Ledger {
+            elastic: saved.ledger.0,
+            loads: vectors_in(&saved.ledger.1),
+            reactions: vectors_in(&saved.ledger.2),
+        };
+        self.saved_ledger.clone_from(&self.ledger);
+        self.ledger_x.clone_from(&self.state.x);
+        self.saved.clone_from(&self.state);
+        self.frame = saved.frame;
+        self.ramp_frames = Some(saved.ramp_frames);
+        Ok(())
+    }
+
     /// Run `substeps` steps of the frame; returns the stats and whether the state is finite.
     fn advance(&mut self, frame: usize, substeps: usize, stop_early: bool) -> (StepStats, bool) {
         let mut stats = StepStats {
@@ -366,6 +451,7 @@ impl Simulation {
             ..Default::default()
         };
         let p = &self.params;
+        let ramp_frames = self.ramp_frames.unwrap_or(p.frames);
         for i in 1..=substeps {
             let (clock, kind_is_dynamic, h, t) = match p.integrator {
                 Integrator::BackwardEuler => {
@@ -373,12 +459,12 @@ impl Simulation {
                     let t = (frame - 1) as f64 * p.dt + i as f64 * h;
                     let clock = Clock::Time {
                         time: t,
-                        run_duration: p.dt * p.frames as f64,
+                        run_duration: p.dt * ramp_frames as f64,
                     };
                     (clock, true, h, t)
                 }
                 Integrator::Quasistatic => {
-                    let s = ((frame - 1) as f64 + i as f64 / substeps as f64) / p.frames as f64;
+                    let s = ((frame - 1) as f64 + i as f64 / substeps as f64) / ramp_frames as f64;
                     (Clock::LoadFactor(s), false, 0.0, s)
                 }
             };
@@ -405,7 +491,7 @@ impl Simulation {
                         run_duration,
                     },
                     Clock::LoadFactor(s) => {
-                        Clock::LoadFactor(s - 1.0 / (substeps * p.frames) as f64)
+                        Clock::LoadFactor(s - 1.0 / (substeps * ramp_frames) as f64)
                     }
                 };
                 contact.begin_step(

@@ -6,6 +6,7 @@ mod compare;
 pub mod mesh;
 mod render;
 mod run;
+mod saved;
 
 use std::process::ExitCode;
 

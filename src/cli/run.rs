@@ -1,17 +1,23 @@
-//! `tetsim run [SCENE] [--out DIR]`: run a scene, write its frames, then its pictures and plots.
+//! `tetsim run [SCENE] [--out DIR]` and `tetsim run --resume DIR`: run a scene (or go on with a
+//! stopped run), writing each frame, `checkpoint.bin` after it and `manifest.json` (`running`,
+//! then `complete`, `interrupted` or why it stopped); then the pictures and plots, drawn from
+//! the frames on disk.
+//!
+//! Ctrl-C and SIGTERM finish the frame being computed, write the summary and the manifest, say
+//! how to resume and exit 130 / 143; a second one stops at once (the checkpoint of the last
+//! frame still allows resuming).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use anyhow::Context;
-use tetsim::contact::display::{DisplaySurface, scene_box};
+use tetsim::checkpoint::{Checkpoint, FILE_NAME, RunRecord};
 use tetsim::diagnose::{RunSummary, plausibility_warnings};
-use tetsim::math::Vec3;
-use tetsim::output::Recorder;
+use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
-use tetsim::render::{
-    self, FieldKind, ObstacleView, RenderMesh, RenderParams, RunFrame, RunPictureParams,
-};
+use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
 use tetsim::{Scene, Simulation};
 
 /// Arguments of `tetsim run`.
@@ -19,10 +25,10 @@ use tetsim::{Scene, Simulation};
 pub struct RunArgs {
     /// Scene file (TOML). Without it, the built-in default scene runs.
     pub scene: Option<PathBuf>,
-    /// Output folder (overrides [output] dir).
+    /// Output folder (overrides [output] dir). An earlier run's files there are removed first.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Number of frames (overrides [solver] frames).
+    /// Number of frames (overrides [solver] frames; with --resume: go on to this frame).
     #[arg(long)]
     pub frames: Option<usize>,
     /// Run on a mesh the mesh doctor refuses (sets [mesh] force).
@@ -35,85 +41,104 @@ pub struct RunArgs {
     /// [output] deterministic; the times still go to timings.csv).
     #[arg(long)]
     pub deterministic: bool,
+    /// Go on with the stopped run in DIR from its checkpoint.bin, with the scene and options
+    /// kept there, to its last frame (or --frames N).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "out", "force", "no_pictures", "deterministic"])]
+    pub resume: Option<PathBuf>,
 }
 
-/// Frames kept in memory for the pictures: (frame, time, positions, field values, obstacles).
-type Kept = Vec<(usize, f64, Vec<Vec3>, Vec<f64>, ObstacleView)>;
-
 pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
-    let mut scene = match &args.scene {
-        Some(path) => Scene::load(path)?,
-        None => Scene::default(),
+    let stop = watch_signals()?;
+    let (scene, mut record, checkpoint) = match &args.resume {
+        Some(dir) => resumed(dir, args.frames)?,
+        None => fresh(&args)?,
     };
-    scene.mesh.force |= args.force;
-    scene.output.deterministic |= args.deterministic;
-    if let Some(frames) = args.frames {
-        anyhow::ensure!(frames > 0, "--frames must be at least 1");
-        scene.solver.frames = frames;
-    }
-    if args.no_pictures {
-        scene.output.pictures = false;
-        scene.output.plots = false;
-    }
-    let out = args.out.clone().unwrap_or_else(|| scene.output.dir.clone());
-    let mut sim = Simulation::from_scene(&scene)?;
-    let mut warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
-    for w in &warnings {
-        log::warn!("{w}");
-    }
-    let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)?
-        .deterministic(scene.output.deterministic);
-    recorder
-        .write_frame(&sim, None)
-        .context("writing frame 0")?;
+    let out = PathBuf::from(&record.out);
+    // Everything about the pictures is checked before the first frame: a bad camera must not
+    // cost a whole run.
     let field = match scene.output.field.as_str() {
         "none" => None,
         name => Some(name.parse::<FieldKind>()?),
     };
-    let mut kept: Kept = Vec::new();
-    let obstacles = sim.contact_setup().map(|setup| {
-        let surface = DisplaySurface::new(setup, scene_box(sim.initial_positions(), setup));
-        let is_plane: Vec<bool> = surface.shape.iter().map(|&s| s == 0.0).collect();
-        (surface, is_plane)
-    });
-    let up = RenderParams::default().up;
-    let keep = |sim: &Simulation, kept: &mut Kept| {
-        if scene.output.pictures {
-            let values = field.map_or_else(Vec::new, |kind| {
-                render::field_values(kind, &sim.body, &sim.state.x)
-            });
-            let view = match (&obstacles, sim.contact_setup()) {
-                (Some((surface, is_plane)), Some(setup)) => {
-                    let ramps: Vec<f64> = setup
-                        .obstacles
-                        .iter()
-                        .map(|o| sim.motion_ramp(o.duration))
-                        .collect();
-                    let points = surface.positions_at(setup, &ramps);
-                    ObstacleView::new(&points, &surface.triangles, &surface.obstacle, is_plane, up)
-                }
-                _ => ObstacleView::default(),
-            };
-            kept.push((sim.frame(), sim.state.t, sim.state.x.clone(), values, view));
-        }
-    };
-    keep(&sim, &mut kept);
+    let pictures = picture_params(&scene, field);
+    if scene.output.pictures {
+        check_pictures(&pictures)?;
+    }
 
+    let mut sim = Simulation::from_scene(&scene)?;
+    if checkpoint.is_none() {
+        // After building: a missing file is reported at its scene key by the build.
+        record.inputs = tetsim::manifest::input_hashes(&scene)?.to_string();
+    }
+    let mut warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
+    for w in &warnings {
+        log::warn!("{w}");
+    }
+    let mut recorder = match &checkpoint {
+        Some(c) => {
+            sim.restore(&c.simulation)?;
+            Recorder::resume(&out, &sim, scene.output.obj, &c.recorder)?
+        }
+        None => {
+            let removed = clear_previous_run(&out)?;
+            if removed > 0 && !quiet {
+                eprintln!(
+                    "note: removed {removed} files of an earlier run from {}",
+                    out.display()
+                );
+            }
+            let mut r = Recorder::create(&out, &sim.body, scene.output.obj)?
+                .deterministic(scene.output.deterministic);
+            r.write_frame(&sim, None).context("writing frame 0")?;
+            r
+        }
+    }
+    .deterministic(scene.output.deterministic)
+    .named(&record.out);
+    let save = |sim: &Simulation, recorder: &Recorder| -> anyhow::Result<()> {
+        let checkpoint = Checkpoint {
+            run: record.clone(),
+            simulation: sim.snapshot(),
+            recorder: recorder.snapshot(),
+        };
+        checkpoint
+            .write(&out.join(FILE_NAME))
+            .context("writing the checkpoint")
+    };
+    if checkpoint.is_none() {
+        save(&sim, &recorder)?;
+    }
+    recorder.write_manifest(&scene, &sim, "running")?;
+
+    let first = sim.frame();
     let frames = sim.params.frames;
     let mut display = RunDisplay::new(
-        frames,
+        frames.saturating_sub(first),
         if quiet {
             DisplayMode::Quiet
         } else {
             DisplayMode::Auto
         },
     );
-    let mut failure = None;
     let (lo, hi) = sim.body.mesh.bounding_box();
     let body_size = (hi - lo).norm();
     let mut summary = RunSummary::default();
-    let outcome = sim.run_with(&mut recorder, |sim, stats| {
-        summary.add(stats, sim.params.substeps);
+    let mut failure = None;
+    while !sim.is_finished() && !stop.flag.load(Ordering::SeqCst) {
+        let stats = match sim.step() {
+            Ok(stats) => stats,
+            // Stop, but keep what the run produced: frames are on disk; draw them too.
+            Err(error @ tetsim::Error::Solve { .. }) => {
+                failure = Some(error);
+                break;
+            }
+            Err(error) => return Err(error.into()),
+        };
+        recorder
+            .write_frame(&sim, Some(&stats))
+            .with_context(|| format!("writing frame {}", stats.frame))?;
+        save(&sim, &recorder)?;
+        summary.add(&stats, sim.params.substeps);
         if stats.frame == 1 {
             let moved = sim
                 .state
@@ -141,36 +166,29 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             min_j: stats.min_j,
             wall_seconds: stats.wall_seconds,
         });
-        if sim.frame() % scene.output.gif_stride == 0 {
-            keep(sim, &mut kept);
-        }
-    });
-    match outcome {
-        Ok(()) => {}
-        // Stop, but keep what the run produced: frames are on disk; draw them too.
-        Err(error @ tetsim::Error::Solve { .. }) => failure = Some(error),
-        Err(error) => return Err(error.into()),
     }
-    // The last frame reached is always drawn (it is the preview).
-    if kept.last().is_some_and(|k| k.0 != sim.frame()) {
-        keep(&sim, &mut kept);
-    }
-
-    let mut pictures = Vec::new();
-    if scene.output.pictures && !kept.is_empty() {
-        pictures.extend(draw(&scene, &sim, field, &kept, &out).context("rendering the pictures")?);
-    }
-    if scene.output.plots && sim.frame() > 0 {
-        pictures.extend(
-            render::plot_steps(&out.join("steps.csv"), &out).context("plotting steps.csv")?,
-        );
-    }
-    let status = failure
-        .as_ref()
-        .map_or("complete".to_string(), |e| format!("stopped: {e}"));
+    let signal = stop.which.load(Ordering::SeqCst);
+    let interrupted = !sim.is_finished() && failure.is_none() && signal != 0;
+    let status = match (&failure, interrupted) {
+        (Some(e), _) => format!("stopped: {e}"),
+        (None, true) => "interrupted".to_string(),
+        (None, false) => "complete".to_string(),
+    };
+    // The manifest first: whatever happens to the pictures, the run's record is written.
     recorder.write_manifest(&scene, &sim, &status)?;
+
     let mut files = recorder.files().to_vec();
-    files.extend(pictures);
+    let mut picture_error = None;
+    if !interrupted {
+        match draw(&scene, &pictures, &out, sim.frame()) {
+            Ok(written) => files.extend(written),
+            Err(e) => {
+                picture_error = Some(format!("{e:#}"));
+                recorder.note_problem(&format!("pictures: {e:#}"));
+                recorder.write_manifest(&scene, &sim, &status)?;
+            }
+        }
+    }
     let text = display.finish(&out, &files);
     if !quiet {
         eprintln!("{text}");
@@ -181,35 +199,138 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             eprintln!("note: {finding}");
         }
     }
-    match failure {
-        Some(error) => Err(error.into()),
-        None => Ok(ExitCode::SUCCESS),
+    if interrupted {
+        let name = if signal == SIGTERM {
+            "SIGTERM"
+        } else {
+            "Ctrl-C"
+        };
+        eprintln!(
+            "interrupted ({name}) after frame {} of {frames}; the run's files are written up to it.\n\
+             resume with: tetsim run --resume {}",
+            sim.frame(),
+            shell_word(&out)
+        );
+        return Ok(ExitCode::from(if signal == SIGTERM { 143 } else { 130 }));
     }
+    if let Some(error) = failure {
+        return Err(error.into());
+    }
+    if let Some(e) = picture_error {
+        anyhow::bail!(
+            "drawing the pictures failed: {e} (the frames, steps.csv and manifest.json are written)"
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
-/// preview.png and animation.gif from the kept frames, one camera and colour range for all.
-fn draw(
-    scene: &Scene,
-    sim: &Simulation,
-    field: Option<FieldKind>,
-    kept: &Kept,
-    out: &std::path::Path,
-) -> anyhow::Result<Vec<PathBuf>> {
-    let mesh = RenderMesh::new(&sim.body.mesh);
-    let fixed: Vec<bool> = sim.free_mask().iter().map(|m| m.sum() < 3.0).collect();
-    let frames: Vec<RunFrame<'_>> = kept
-        .iter()
-        .map(|(frame, time, positions, values, obstacles)| RunFrame {
-            frame: *frame,
-            time: *time,
-            positions,
-            field: values,
-            obstacles: &obstacles.triangles,
-            ground: obstacles.ground,
-        })
-        .collect();
+const SIGTERM: usize = signal_hook::consts::SIGTERM as usize;
+
+/// The stop request: set by Ctrl-C or SIGTERM, with the signal's number.
+struct Stop {
+    flag: Arc<AtomicBool>,
+    which: Arc<AtomicUsize>,
+}
+
+/// Ctrl-C and SIGTERM set a flag the frame loop reads after each frame; a second one exits at
+/// once (130 / 143), leaving the checkpoint of the last frame written.
+fn watch_signals() -> anyhow::Result<Stop> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    use signal_hook::flag;
+    let stop = Stop {
+        flag: Arc::new(AtomicBool::new(false)),
+        which: Arc::new(AtomicUsize::new(0)),
+    };
+    for (signal, code) in [(SIGINT, 130), (SIGTERM, 143)] {
+        // Registered first, so it sees the flag as the previous signal left it.
+        flag::register_conditional_shutdown(signal, code, Arc::clone(&stop.flag))?;
+        flag::register(signal, Arc::clone(&stop.flag))?;
+        flag::register_usize(signal, Arc::clone(&stop.which), signal as usize)?;
+    }
+    Ok(stop)
+}
+
+/// A new run: the scene and options from the command line.
+fn fresh(args: &RunArgs) -> anyhow::Result<(Scene, RunRecord, Option<Checkpoint>)> {
+    let mut scene = match &args.scene {
+        Some(path) => Scene::load(path)?,
+        None => Scene::default(),
+    };
+    scene.mesh.force |= args.force;
+    scene.output.deterministic |= args.deterministic;
+    if let Some(frames) = args.frames {
+        anyhow::ensure!(frames > 0, "--frames must be at least 1");
+        scene.solver.frames = frames;
+    }
+    if args.no_pictures {
+        scene.output.pictures = false;
+        scene.output.plots = false;
+    }
+    let out = args.out.clone().unwrap_or_else(|| scene.output.dir.clone());
+    let base = match &args.scene {
+        Some(path) => path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        None => PathBuf::from("."),
+    };
+    let base = std::path::absolute(&base).unwrap_or(base);
+    let record = RunRecord {
+        scene_path: scene.path.display().to_string(),
+        scene_base: base.display().to_string(),
+        scene_source: scene.source().to_string(),
+        inputs: String::new(),
+        out: out.display().to_string(),
+        frames: scene.solver.frames,
+        force: scene.mesh.force,
+        pictures: scene.output.pictures,
+        plots: scene.output.plots,
+        deterministic: scene.output.deterministic,
+    };
+    Ok((scene, record, None))
+}
+
+/// A stopped run: its scene and options from its checkpoint, its inputs checked unchanged.
+fn resumed(
+    dir: &Path,
+    frames: Option<usize>,
+) -> anyhow::Result<(Scene, RunRecord, Option<Checkpoint>)> {
+    anyhow::ensure!(dir.is_dir(), "--resume {}: no such folder", dir.display());
+    let checkpoint = Checkpoint::read(&dir.join(FILE_NAME))?;
+    let mut record = checkpoint.run.clone();
+    let mut scene = Scene::parse(
+        &record.scene_source,
+        Path::new(&record.scene_path),
+        Path::new(&record.scene_base),
+    )?;
+    let inputs = tetsim::manifest::input_hashes(&scene)?.to_string();
+    anyhow::ensure!(
+        inputs == record.inputs,
+        "--resume {}: the scene's input files changed since the run started (now {inputs}, then {}); \
+         start the run again",
+        dir.display(),
+        record.inputs
+    );
+    let done = checkpoint.simulation.frame;
+    if let Some(frames) = frames {
+        anyhow::ensure!(
+            frames >= done,
+            "--frames {frames}: the run in {} is already at frame {done}",
+            dir.display()
+        );
+        record.frames = frames;
+    }
+    scene.solver.frames = record.frames;
+    scene.mesh.force = record.force;
+    scene.output.pictures = record.pictures;
+    scene.output.plots = record.plots;
+    scene.output.deterministic = record.deterministic;
+    // The folder as given now: the run may have been moved, or resumed from elsewhere.
+    record.out = dir.display().to_string();
+    Ok((scene, record, Some(checkpoint)))
+}
+
+/// The pictures' settings from the scene's [output].
+fn picture_params(scene: &Scene, field: Option<FieldKind>) -> RunPictureParams {
     let o = &scene.output;
-    let params = RunPictureParams {
+    RunPictureParams {
         preview: RenderParams {
             width: o.width,
             height: o.height,
@@ -221,6 +342,56 @@ fn draw(
         gif_width: o.gif_width,
         gif_height: o.gif_height,
         gif_delay_cs: render::gif_delay_cs(scene.solver.dt * o.gif_stride as f64),
-    };
-    Ok(render::render_run(&mesh, &fixed, &frames, &params, out)?)
+    }
+}
+
+/// Refuse picture settings that could only fail after the run.
+fn check_pictures(p: &RunPictureParams) -> anyhow::Result<()> {
+    p.preview.validate().context("[output] picture settings")?;
+    RenderParams {
+        width: p.gif_width,
+        height: p.gif_height,
+        ..p.preview.clone()
+    }
+    .validate()
+    .context("[output] gif_width, gif_height")?;
+    Ok(())
+}
+
+/// preview.png and animation.gif (every gif_stride-th frame and the last), drawn from the
+/// frames on disk one at a time, and the plots of steps.csv.
+fn draw(
+    scene: &Scene,
+    params: &RunPictureParams,
+    out: &Path,
+    last: usize,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    if scene.output.pictures {
+        let stride = scene.output.gif_stride;
+        written.extend(
+            super::saved::render_saved(out, out, params, |frame| {
+                frame.is_multiple_of(stride) || frame == last
+            })
+            .context("rendering the pictures")?,
+        );
+    }
+    if scene.output.plots && last > 0 {
+        written
+            .extend(render::plot_steps(&out.join("steps.csv"), out).context("plotting steps.csv")?);
+    }
+    Ok(written)
+}
+
+/// A path as one shell word (quoted when it needs to be).
+fn shell_word(path: &Path) -> String {
+    let s = path.display().to_string();
+    if !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"/._-+=:,@".contains(&b))
+    {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
 }

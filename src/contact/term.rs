@@ -57,6 +57,18 @@ pub struct ContactCosts {
     pub ccd_calls: usize,
 }
 
+/// The contact term's state that carries over from one step to the next (see
+/// [`ContactTerm::saved_state`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ContactState {
+    /// Barrier stiffness κ.
+    pub kappa: f64,
+    /// The squared smallest gap when κ was last adapted (m²).
+    pub previous_min_distance: f64,
+    /// The smallest gap at the last evaluation (m).
+    pub min_distance: Option<f64>,
+}
+
 /// One active pair: up to four body vertices and the pair's energy derivatives over them.
 #[derive(Clone, Debug)]
 struct Pair {
@@ -267,6 +279,23 @@ impl ContactTerm {
     /// all vertices for planes, all faces for spheres), None when nothing was within reach.
     pub fn min_distance(&self) -> Option<f64> {
         self.min_distance
+    }
+
+    /// What the next step reads of the past: κ and the smallest gaps that adapt it (a
+    /// checkpoint stores it; everything else is recomputed at the step's start).
+    pub fn saved_state(&self) -> ContactState {
+        ContactState {
+            kappa: self.kappa,
+            previous_min_distance: self.previous_min_distance,
+            min_distance: self.min_distance,
+        }
+    }
+
+    /// Take up a [`ContactTerm::saved_state`].
+    pub fn restore_state(&mut self, state: &ContactState) {
+        self.kappa = state.kappa;
+        self.previous_min_distance = state.previous_min_distance;
+        self.min_distance = state.min_distance;
     }
 
     /// Barrier energy at the last evaluation, J.

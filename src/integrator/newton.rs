@@ -93,6 +93,20 @@ impl Newton {
         self.solver.report()
     }
 
+    /// The linear solver's state between iterates (for a checkpoint).
+    pub fn solver_state(&self) -> crate::linear::state::SolverState {
+        self.solver.save_state()
+    }
+
+    /// Take up a saved linear-solver state (`rest`: the body's rest positions).
+    pub fn restore_solver_state(
+        &mut self,
+        saved: &crate::linear::state::SolverState,
+        rest: &[Vec3],
+    ) -> Result<(), String> {
+        self.solver.restore_state(saved, rest)
+    }
+
     /// The sparse Cholesky's costs and counts, when it is the preconditioner.
     #[cfg(feature = "direct")]
     pub fn cholesky_info(&self) -> Option<&crate::linear::direct::CholeskyInfo> {

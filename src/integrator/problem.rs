@@ -109,6 +109,19 @@ impl IncrementalPotential {
         }
     }
 
+    /// The generation number of the Hessian's pattern (see [`crate::linear::SystemPattern`]).
+    pub fn pattern_generation(&self) -> u64 {
+        self.pattern_generation
+    }
+
+    /// Continue a run whose pattern had generation `generation` (a checkpoint's): the pattern is
+    /// built afresh at the next solve and numbered so.
+    pub fn restore_pattern_generation(&mut self, generation: u64) {
+        self.pattern = None;
+        self.pattern_generations.clear();
+        self.pattern_generation = generation.saturating_sub(1);
+    }
+
     /// Every term, in order.
     pub fn terms_mut(&mut self) -> impl Iterator<Item = &mut dyn Term> {
         [

@@ -108,6 +108,24 @@ impl LinearSolver for SparseCholesky {
         report
     }
 
+    /// The factor is not stored: a resumed run factors afresh at its first solve.
+    fn save_state(&self) -> super::state::SolverState {
+        super::state::SolverState::NotStored
+    }
+
+    fn restore_state(
+        &mut self,
+        saved: &super::state::SolverState,
+        _rest: &[Vec3],
+    ) -> Result<(), String> {
+        match saved {
+            super::state::SolverState::Multigrid(_) => {
+                Err("the checkpoint's linear-solver state belongs to another preconditioner".into())
+            }
+            _ => Ok(()),
+        }
+    }
+
     fn cholesky_info(&self) -> Option<&CholeskyInfo> {
         Some(self.factor.info())
     }

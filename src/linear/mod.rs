@@ -29,6 +29,7 @@ pub mod direct;
 pub mod matrix_free;
 pub mod multigrid;
 pub mod sparse;
+pub mod state;
 
 use crate::math::{Mat3, Vec3};
 use cg::{CgError, CgInfo, CgParams};
@@ -103,6 +104,21 @@ pub trait LinearSolver: Send {
     fn bytes_per_iteration(&self, matrix_free_bytes: f64) -> f64;
     /// Counts so far.
     fn report(&self) -> SolverReport;
+    /// What shapes the coming solves, for a checkpoint ([`state::SolverState`]). Default: nothing.
+    fn save_state(&self) -> state::SolverState {
+        state::SolverState::Fresh
+    }
+    /// Take up a saved state (`rest`: the vertices' rest positions), as if the solves that made
+    /// it had happened here. Default: only [`state::SolverState::Fresh`] is accepted.
+    fn restore_state(&mut self, saved: &state::SolverState, rest: &[Vec3]) -> Result<(), String> {
+        let _ = rest;
+        match saved {
+            state::SolverState::Fresh => Ok(()),
+            _ => {
+                Err("the checkpoint's linear-solver state belongs to another preconditioner".into())
+            }
+        }
+    }
     /// The sparse Cholesky's costs, when this strategy uses it.
     #[cfg(feature = "direct")]
     fn cholesky_info(&self) -> Option<&direct::CholeskyInfo> {
@@ -180,8 +196,8 @@ impl AssembledMatrix {
     /// call included).
     pub fn assemble(&mut self, system: &mut dyn System, free: &[Vec3]) -> bool {
         let pattern = system.pattern();
-        let changed = self.generation != Some(pattern.generation) || self.a.is_none();
-        if changed {
+        let changed = self.generation != Some(pattern.generation);
+        if changed || self.a.is_none() {
             self.a = Some(BlockCsr::zeros(pattern.pattern.clone()));
             self.generation = Some(pattern.generation);
         }
@@ -192,6 +208,22 @@ impl AssembledMatrix {
             upper.fill_from(a);
         }
         changed
+    }
+
+    /// The pattern generation and pattern, for a checkpoint.
+    pub fn saved(&self) -> (Option<u64>, Option<state::StoredPattern>) {
+        let pattern = self
+            .a
+            .as_ref()
+            .map(|a| (a.pattern.row_start.clone(), a.pattern.cols.clone()));
+        (self.generation, pattern)
+    }
+
+    /// Take up a saved generation and pattern (see [`AssembledMatrix::saved`]): the next
+    /// assembly with that generation reuses the storage instead of counting a new pattern.
+    pub fn restore(&mut self, generation: Option<u64>, a: Option<BlockCsr>) {
+        self.generation = generation;
+        self.a = a;
     }
 
     /// CG with the assembled A (f64 or its f32 upper triangle).

@@ -8,8 +8,11 @@
 
 use super::amg::{Amg, AmgParams};
 use super::cg::{CgError, CgInfo, CgParams, CgWorkspace, Preconditioner};
+use super::state::{
+    HierarchyState, MultigridState, SolverState, blocks_out, matrix_in, vectors_in, vectors_out,
+};
 use super::{AssembledMatrix, LinearSolver, LinearSolverParams, SolverReport, System};
-use crate::math::Vec3;
+use crate::math::{Mat3, Vec3};
 
 /// The hierarchy is refreshed (numbers recomputed on the kept aggregates) when CG needed more
 /// than this factor times the iterations per decade of residual reduction of the first solve
@@ -31,6 +34,10 @@ pub struct Multigrid {
     /// Whether the last CG solve stopped at its iteration cap.
     last_capped: bool,
     report: SolverReport,
+    /// The free-DOF mask and A the hierarchy was built from, and whether a refresh followed:
+    /// what a checkpoint stores to rebuild it bit for bit (see [`super::state`]).
+    built: Option<(Vec<Vec3>, Vec<Mat3>)>,
+    refreshed: bool,
 }
 
 impl Multigrid {
@@ -48,6 +55,8 @@ impl Multigrid {
                 name: "amg",
                 ..Default::default()
             },
+            built: None,
+            refreshed: false,
         }
     }
 
@@ -74,6 +83,7 @@ impl LinearSolver for Multigrid {
         // 147 breakdowns and no convergence, against none with the hierarchy kept). The exact A
         // is preconditioned with the hierarchy of the projected one.
         let exact = !system.is_projected();
+        let builds = self.report.builds;
         match &mut self.amg {
             amg @ None => {
                 *amg = Some(Box::new(Amg::new(
@@ -106,8 +116,13 @@ impl LinearSolver for Multigrid {
                 amg.refresh(a);
                 self.baseline_rate = None;
                 self.report.refreshes += 1;
+                self.refreshed = true;
             }
             Some(_) => {}
+        }
+        if self.report.builds != builds {
+            self.built = Some((free.to_vec(), a.values.clone()));
+            self.refreshed = false;
         }
         log::debug!(
             "assembly {:.4} s, preconditioner {:.4} s",
@@ -159,5 +174,68 @@ impl LinearSolver for Multigrid {
 
     fn report(&self) -> SolverReport {
         self.report.clone()
+    }
+
+    fn save_state(&self) -> SolverState {
+        let (generation, pattern) = self.matrix.saved();
+        let hierarchy = match (&self.amg, &self.built) {
+            (Some(amg), Some((free, built))) => Some(HierarchyState {
+                free: vectors_out(free),
+                built: blocks_out(built),
+                refreshed: self.refreshed.then(|| blocks_out(amg.fine_values())),
+            }),
+            _ => None,
+        };
+        let r = &self.report;
+        SolverState::Multigrid(MultigridState {
+            generation,
+            pattern,
+            hierarchy,
+            baseline_rate: self.baseline_rate,
+            last_rate: self.last_rate,
+            last_capped: self.last_capped,
+            counts: [r.builds, r.refreshes, r.pattern_changes],
+        })
+    }
+
+    fn restore_state(&mut self, saved: &SolverState, rest: &[Vec3]) -> Result<(), String> {
+        let s = match saved {
+            SolverState::Multigrid(s) => s,
+            SolverState::Fresh => return Ok(()),
+            SolverState::NotStored => {
+                return Err(
+                    "the checkpoint's linear-solver state belongs to another preconditioner".into(),
+                );
+            }
+        };
+        let n = rest.len();
+        match (&s.pattern, &s.hierarchy) {
+            (Some(pattern), Some(h)) => {
+                let built = matrix_in(pattern, &h.built, n)?;
+                if h.free.len() != n {
+                    return Err("the stored multigrid mask does not fit the mesh".into());
+                }
+                let free = vectors_in(&h.free);
+                let mut amg = Amg::new(&built, rest, &free, &self.params);
+                if let Some(values) = &h.refreshed {
+                    amg.refresh(&matrix_in(pattern, values, n)?);
+                }
+                self.amg = Some(Box::new(amg));
+                self.built = Some((free, built.values));
+                self.refreshed = h.refreshed.is_some();
+            }
+            (_, None) => {}
+            (None, Some(_)) => return Err("the stored multigrid hierarchy has no matrix".into()),
+        }
+        self.matrix.restore(s.generation, None);
+        self.baseline_rate = s.baseline_rate;
+        self.last_rate = s.last_rate;
+        self.last_capped = s.last_capped;
+        [
+            self.report.builds,
+            self.report.refreshes,
+            self.report.pattern_changes,
+        ] = s.counts;
+        Ok(())
     }
 }

@@ -30,7 +30,152 @@ pub fn encode_gif(frames: &[Image], delay_cs: u16) -> Result<Vec<u8>> {
         .first()
         .ok_or_else(|| Error::parameter("output.gif", "no frames to animate"))?;
     let (w, h) = (first.width, first.height);
-    if let Some(f) = frames.iter().find(|f| (f.width, f.height) != (w, h)) {
+    let mut histogram = Histogram::new(frames.len(), w, h)?;
+    for f in frames {
+        histogram.add(f)?;
+    }
+    let mut out = Vec::new();
+    let mut stream = GifStream::new(&mut out, &histogram.palette(), w, h, delay_cs)?;
+    for f in frames {
+        stream.push(f)?;
+    }
+    drop(stream);
+    Ok(out)
+}
+
+/// Write `frames` as a looping GIF at `path`, atomically (temp file + rename).
+pub fn write_gif(path: impl AsRef<Path>, frames: &[Image], delay_cs: u16) -> Result<()> {
+    write_atomic(path.as_ref(), &encode_gif(frames, delay_cs)?)
+}
+
+/// The colour histogram of a GIF's frames, added one at a time (the first pass of a streamed
+/// GIF: the palette must be known before the first frame is written). Samples every k-th pixel
+/// of each frame, k set by the total so at most [`SAMPLE_BUDGET`] are counted.
+pub struct Histogram {
+    count: Vec<u64>,
+    sums: Vec<[u64; 3]>,
+    stride: usize,
+    size: (u32, u32),
+}
+
+impl Histogram {
+    /// For `frames` frames of `width`×`height` pixels.
+    pub fn new(frames: usize, width: u32, height: u32) -> Result<Self> {
+        check_size(width, height)?;
+        let total = frames * width as usize * height as usize;
+        Ok(Histogram {
+            count: vec![0u64; SIDE * SIDE * SIDE],
+            sums: vec![[0u64; 3]; SIDE * SIDE * SIDE],
+            stride: total.div_ceil(SAMPLE_BUDGET).max(1),
+            size: (width, height),
+        })
+    }
+
+    /// Count one frame's sampled pixels.
+    pub fn add(&mut self, img: &Image) -> Result<()> {
+        same_size(self.size, img)?;
+        for px in img.pixels.chunks_exact(3).step_by(self.stride) {
+            let k = key([px[0], px[1], px[2]]);
+            self.count[k] += 1;
+            for (sum, &c) in self.sums[k].iter_mut().zip(px) {
+                *sum += c as u64;
+            }
+        }
+        Ok(())
+    }
+
+    /// The median-cut palette of what was counted.
+    pub fn palette(&self) -> GifPalette {
+        GifPalette(Palette::median_cut(&self.count, &self.sums))
+    }
+}
+
+/// A GIF's global palette (see [`Histogram::palette`]).
+pub struct GifPalette(Palette);
+
+/// A looping GIF written frame by frame to `W` (the second pass of a streamed GIF): memory
+/// holds one frame, whatever their number.
+pub struct GifStream<W: std::io::Write> {
+    encoder: gif::Encoder<W>,
+    palette: Palette,
+    lookup: Vec<u8>,
+    looked_up: Vec<bool>,
+    shown: Option<Vec<u8>>,
+    size: (u32, u32),
+    delay_cs: u16,
+}
+
+impl<W: std::io::Write> GifStream<W> {
+    /// Start a GIF of `width`×`height` frames with `palette`, `delay_cs` hundredths of a second
+    /// per frame.
+    pub fn new(
+        out: W,
+        palette: &GifPalette,
+        width: u32,
+        height: u32,
+        delay_cs: u16,
+    ) -> Result<Self> {
+        check_size(width, height)?;
+        let palette = Palette {
+            colours: palette.0.colours.clone(),
+        };
+        let mut flat = Vec::with_capacity(3 * 256);
+        for c in &palette.colours {
+            flat.extend_from_slice(c);
+        }
+        flat.resize(3 * 256, 0);
+        let mut encoder = gif::Encoder::new(out, width as u16, height as u16, &flat)
+            .map_err(|e| Error::parameter("output.gif", e.to_string()))?;
+        encoder
+            .set_repeat(gif::Repeat::Infinite)
+            .map_err(|e| Error::parameter("output.gif", e.to_string()))?;
+        Ok(GifStream {
+            encoder,
+            palette,
+            lookup: vec![u8::MAX; SIDE * SIDE * SIDE],
+            looked_up: vec![false; SIDE * SIDE * SIDE],
+            shown: None,
+            size: (width, height),
+            delay_cs,
+        })
+    }
+
+    /// Append one frame (only what changed since the last one is stored).
+    pub fn push(&mut self, img: &Image) -> Result<()> {
+        same_size(self.size, img)?;
+        let (w, h) = self.size;
+        let indices = self.palette.map(img, &mut self.lookup, &mut self.looked_up);
+        let frame = match &self.shown {
+            None => gif::Frame {
+                width: w as u16,
+                height: h as u16,
+                buffer: Cow::Borrowed(&indices),
+                delay: self.delay_cs,
+                dispose: gif::DisposalMethod::Keep,
+                ..gif::Frame::default()
+            },
+            Some(prev) => difference(prev, &indices, w as usize, h as usize, self.delay_cs),
+        };
+        self.encoder
+            .write_frame(&frame)
+            .map_err(|e| Error::parameter("output.gif", e.to_string()))?;
+        self.shown = Some(indices);
+        Ok(())
+    }
+}
+
+fn check_size(w: u32, h: u32) -> Result<()> {
+    if w == 0 || h == 0 || w > u16::MAX as u32 || h > u16::MAX as u32 {
+        return Err(Error::parameter(
+            "output.gif",
+            format!("{w}x{h} pixels: GIF sides must lie in 1..=65535"),
+        ));
+    }
+    Ok(())
+}
+
+fn same_size((w, h): (u32, u32), f: &Image) -> Result<()> {
+    if (f.width, f.height) != (w, h) {
         return Err(Error::parameter(
             "output.gif",
             format!(
@@ -39,54 +184,7 @@ pub fn encode_gif(frames: &[Image], delay_cs: u16) -> Result<Vec<u8>> {
             ),
         ));
     }
-    if w == 0 || h == 0 || w > u16::MAX as u32 || h > u16::MAX as u32 {
-        return Err(Error::parameter(
-            "output.gif",
-            format!("{w}x{h} pixels: GIF sides must lie in 1..=65535"),
-        ));
-    }
-    let palette = Palette::median_cut(frames);
-    let mut flat = Vec::with_capacity(3 * 256);
-    for c in &palette.colours {
-        flat.extend_from_slice(c);
-    }
-    flat.resize(3 * 256, 0);
-
-    let mut out = Vec::new();
-    {
-        let mut encoder = gif::Encoder::new(&mut out, w as u16, h as u16, &flat)
-            .map_err(|e| Error::parameter("output.gif", e.to_string()))?;
-        encoder
-            .set_repeat(gif::Repeat::Infinite)
-            .map_err(|e| Error::parameter("output.gif", e.to_string()))?;
-        let mut lookup = vec![u8::MAX; SIDE * SIDE * SIDE];
-        let mut looked_up = vec![false; SIDE * SIDE * SIDE];
-        let mut shown: Option<Vec<u8>> = None;
-        for img in frames {
-            let indices = palette.map(img, &mut lookup, &mut looked_up);
-            let frame = match &shown {
-                None => gif::Frame {
-                    width: w as u16,
-                    height: h as u16,
-                    buffer: Cow::Borrowed(&indices),
-                    delay: delay_cs,
-                    dispose: gif::DisposalMethod::Keep,
-                    ..gif::Frame::default()
-                },
-                Some(prev) => difference(prev, &indices, w as usize, h as usize, delay_cs),
-            };
-            encoder
-                .write_frame(&frame)
-                .map_err(|e| Error::parameter("output.gif", e.to_string()))?;
-            shown = Some(indices);
-        }
-    }
-    Ok(out)
-}
-
-/// Write `frames` as a looping GIF at `path`, atomically (temp file + rename).
-pub fn write_gif(path: impl AsRef<Path>, frames: &[Image], delay_cs: u16) -> Result<()> {
-    write_atomic(path.as_ref(), &encode_gif(frames, delay_cs)?)
+    Ok(())
 }
 
 /// The part of `next` that differs from `prev`, cropped, with unchanged pixels transparent.
@@ -146,20 +244,7 @@ impl Palette {
     /// Median cut: start from one box holding every occurring bin; repeatedly split the box
     /// with the largest count × extent along its longest axis at its weighted median, until
     /// there are [`COLOURS`] boxes or none can be split. Each box's colour is its mean.
-    fn median_cut(frames: &[Image]) -> Palette {
-        let mut count = vec![0u64; SIDE * SIDE * SIDE];
-        let mut sums = vec![[0u64; 3]; SIDE * SIDE * SIDE];
-        let total: usize = frames.iter().map(|f| f.pixels.len() / 3).sum();
-        let stride = total.div_ceil(SAMPLE_BUDGET).max(1);
-        for f in frames {
-            for px in f.pixels.chunks_exact(3).step_by(stride) {
-                let k = key([px[0], px[1], px[2]]);
-                count[k] += 1;
-                for c in 0..3 {
-                    sums[k][c] += px[c] as u64;
-                }
-            }
-        }
+    fn median_cut(count: &[u64], sums: &[[u64; 3]]) -> Palette {
         let mut bins: Vec<Bin> = (0..count.len())
             .filter(|&k| count[k] > 0)
             .map(|k| Bin {
@@ -293,7 +378,9 @@ mod tests {
         let mut img = Image::new(8, 8, [10, 200, 30]);
         img.set_pixel(3, 3, [250, 250, 250]);
         img.set_pixel(4, 4, [0, 0, 128]);
-        let palette = Palette::median_cut(std::slice::from_ref(&img));
+        let mut histogram = Histogram::new(1, 8, 8).unwrap();
+        histogram.add(&img).unwrap();
+        let palette = histogram.palette().0;
         for c in [[10, 200, 30], [250, 250, 250], [0, 0, 128]] {
             assert!(palette.colours.contains(&c), "{c:?} missing");
         }

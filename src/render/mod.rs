@@ -40,7 +40,7 @@ use crate::error::{Error, Result};
 use crate::math::Vec3;
 
 pub use crate::elastic::{VON_MISES_MIN_J, von_mises};
-pub use animation::{encode_gif, write_gif};
+pub use animation::{GifPalette, GifStream, Histogram, encode_gif, write_gif};
 pub use camera::{Bounds, Camera, fit_camera};
 pub use colormap::viridis;
 // The fields live outside the renderer (scene validation needs them without pictures);
@@ -52,7 +52,9 @@ pub use geometry::RenderMesh;
 pub use image::Image;
 pub use obstacles::ObstacleView;
 pub use plot::plot_steps;
-pub use run::{RunFrame, RunPictureParams, gif_delay_cs, render_run};
+pub use run::{
+    FrameSource, OwnedFrame, RunFrame, RunPictureParams, gif_delay_cs, render_run, render_run_from,
+};
 
 /// How triangles are lit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

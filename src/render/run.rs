@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use super::{
-    Bounds, FieldLocation, Image, Plane, RenderMesh, RenderParams, SceneView, field_range,
-    fit_camera, render_with_obstacles, write_gif,
+    Bounds, FieldLocation, GifStream, Histogram, Plane, RenderMesh, RenderParams, SceneView,
+    field_range, fit_camera, render_with_obstacles,
 };
 use crate::error::{Error, Result};
 use crate::math::Vec3;
@@ -65,6 +65,70 @@ pub fn gif_delay_cs(seconds_per_frame: f64) -> u16 {
     (seconds_per_frame * 100.0).round().clamp(2.0, 100.0) as u16
 }
 
+/// One frame of a run, owned (as a [`FrameSource`] loads it).
+#[derive(Clone, Debug, Default)]
+pub struct OwnedFrame {
+    /// Frame number (0 is the initial state).
+    pub frame: usize,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Vertex positions (m).
+    pub positions: Vec<Vec3>,
+    /// Values of the field the pictures are coloured by; empty without a field.
+    pub field: Vec<f64>,
+    /// Obstacles as world triangles (m).
+    pub obstacles: Vec<[Vec3; 3]>,
+    /// A ground plane drawn as the floor.
+    pub ground: Option<Plane>,
+}
+
+impl OwnedFrame {
+    fn as_run_frame(&self) -> RunFrame<'_> {
+        RunFrame {
+            frame: self.frame,
+            time: self.time,
+            positions: &self.positions,
+            field: &self.field,
+            obstacles: &self.obstacles,
+            ground: self.ground,
+        }
+    }
+}
+
+/// The frames of a run, loaded one at a time (from disk, say), so that drawing a run's pictures
+/// holds one frame in memory whatever their number.
+pub trait FrameSource {
+    /// How many frames.
+    fn len(&self) -> usize;
+    /// True without frames.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Frame `i` (0-based among this source's frames).
+    fn load(&mut self, i: usize) -> Result<OwnedFrame>;
+}
+
+/// Frames already in memory.
+struct Slices<'a, 'b>(&'a [RunFrame<'b>]);
+
+impl FrameSource for Slices<'_, '_> {
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    fn load(&mut self, i: usize) -> Result<OwnedFrame> {
+        let f = &self.0[i];
+        Ok(OwnedFrame {
+            frame: f.frame,
+            time: f.time,
+            positions: f.positions.to_vec(),
+            field: f.field.to_vec(),
+            obstacles: f.obstacles.to_vec(),
+            ground: f.ground,
+        })
+    }
+}
+
 /// Render `frames` (in order; the caller picks the stride and should include the last frame)
 /// with one camera fitted to all of them and one colour range over all of them; write
 /// `preview.png` (the last frame, at the preview size) and `animation.gif` (every frame, at
@@ -76,23 +140,38 @@ pub fn render_run(
     params: &RunPictureParams,
     out_dir: &Path,
 ) -> Result<Vec<PathBuf>> {
-    let last = frames
-        .last()
-        .ok_or_else(|| Error::parameter("output", "no frames to render"))?;
+    render_run_from(mesh, fixed, &mut Slices(frames), params, out_dir)
+}
+
+/// [`render_run`] with the frames loaded one at a time: a pass for the camera and colour range,
+/// the preview, a pass for the GIF's palette, and a pass that encodes the GIF into its file as
+/// it goes. Memory holds one frame and one picture, however many frames there are.
+pub fn render_run_from(
+    mesh: &RenderMesh,
+    fixed: &[bool],
+    frames: &mut dyn FrameSource,
+    params: &RunPictureParams,
+    out_dir: &Path,
+) -> Result<Vec<PathBuf>> {
+    let count = frames.len();
+    if count == 0 {
+        return Err(Error::parameter("output", "no frames to render"));
+    }
+    let expected = params.preview.field.map(|kind| match kind.location() {
+        FieldLocation::Vertex => mesh.vertex_count(),
+        FieldLocation::Cell => mesh.tets().len(),
+    });
     let mut bounds = Bounds::empty();
-    for f in frames {
-        bounds.include(f.positions);
-        for t in f.obstacles {
+    let mut range = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut last = OwnedFrame::default();
+    for i in 0..count {
+        let f = frames.load(i)?;
+        bounds.include(&f.positions);
+        for t in &f.obstacles {
             bounds.include(t);
         }
-    }
-    let range = match params.preview.field {
-        Some(kind) => {
-            let expected = match kind.location() {
-                FieldLocation::Vertex => mesh.vertex_count(),
-                FieldLocation::Cell => mesh.tets().len(),
-            };
-            if let Some(f) = frames.iter().find(|f| f.field.len() != expected) {
+        if let (Some(kind), Some(expected)) = (params.preview.field, expected) {
+            if f.field.len() != expected {
                 return Err(Error::parameter(
                     "render.field",
                     format!(
@@ -102,8 +181,16 @@ pub fn render_run(
                     ),
                 ));
             }
-            field_range(frames.iter().map(|f| f.field))
+            let r = field_range([f.field.as_slice()]);
+            if f.field.iter().any(|v| v.is_finite()) {
+                range = (range.0.min(r.0), range.1.max(r.1));
+            }
         }
+        last = f;
+    }
+    let range = match params.preview.field {
+        Some(_) if range.0 <= range.1 => range,
+        Some(_) => (0.0, 0.0),
         None => (0.0, 1.0),
     };
     let draw = |f: &RunFrame<'_>, p: &RenderParams, camera| {
@@ -129,7 +216,8 @@ pub fn render_run(
 
     let preview_camera = fit_camera(&bounds, &params.preview);
     let preview = out_dir.join("preview.png");
-    draw(last, &params.preview, &preview_camera)?.write_png(&preview)?;
+    draw(&last.as_run_frame(), &params.preview, &preview_camera)?.write_png(&preview)?;
+    drop(last);
 
     let gif_params = RenderParams {
         width: params.gif_width,
@@ -137,12 +225,37 @@ pub fn render_run(
         ..params.preview.clone()
     };
     let gif_camera = fit_camera(&bounds, &gif_params);
-    let images = frames
-        .iter()
-        .map(|f| draw(f, &gif_params, &gif_camera))
-        .collect::<Result<Vec<Image>>>()?;
+    let mut histogram = Histogram::new(count, params.gif_width, params.gif_height)?;
+    for i in 0..count {
+        let f = frames.load(i)?;
+        histogram.add(&draw(&f.as_run_frame(), &gif_params, &gif_camera)?)?;
+    }
+    let palette = histogram.palette();
+    drop(histogram);
     let animation = out_dir.join("animation.gif");
-    write_gif(&animation, &images, params.gif_delay_cs)?;
+    let mut failure = None;
+    crate::io::atomic_write(&animation, |w| {
+        let mut encode = || -> Result<()> {
+            let mut stream = GifStream::new(
+                &mut *w,
+                &palette,
+                params.gif_width,
+                params.gif_height,
+                params.gif_delay_cs,
+            )?;
+            for i in 0..count {
+                let f = frames.load(i)?;
+                stream.push(&draw(&f.as_run_frame(), &gif_params, &gif_camera)?)?;
+            }
+            Ok(())
+        };
+        encode().map_err(|e| {
+            let message = e.to_string();
+            failure = Some(e);
+            std::io::Error::other(message)
+        })
+    })
+    .map_err(|e| failure.take().unwrap_or(e))?;
     Ok(vec![preview, animation])
 }
 

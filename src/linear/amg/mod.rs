@@ -167,6 +167,12 @@ impl Amg {
         self.info.refresh_seconds = started.elapsed().as_secs_f64();
     }
 
+    /// The fine matrix's blocks the hierarchy's numbers were last computed from (a checkpoint
+    /// stores them: see [`crate::linear::state`]).
+    pub fn fine_values(&self) -> &[crate::math::Mat3] {
+        &self.fine.a.values
+    }
+
     /// Levels, sizes, operator complexity and timings.
     pub fn info(&self) -> &AmgInfo {
         &self.info

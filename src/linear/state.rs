@@ -1,0 +1,107 @@
+//! What a linear solver carries from one Newton iterate to the next, in a form a checkpoint can
+//! store (see [`crate::checkpoint`]), so that a resumed run solves exactly as one never stopped.
+//!
+//! A multigrid hierarchy is several times the size of A and full of derived arrays, but it is a
+//! pure function of two matrices: its aggregates and patterns come from the A it was built on,
+//! its numbers from the A of its last refresh (a refresh gives the bits of a fresh build: see
+//! [`super::amg`]). Those two matrices (one when no refresh followed the build), the mask of
+//! constrained DOFs at the build and the reuse rule's counters are what is stored; the hierarchy
+//! is rebuilt from them on resume.
+
+use serde::{Deserialize, Serialize};
+
+use super::sparse::{BlockCsr, BlockPattern};
+use crate::math::{Mat3, Vec3};
+
+/// A linear solver's state between iterates.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum SolverState {
+    /// Nothing that shapes later solves (matrix-free strategies, or before the first solve).
+    #[default]
+    Fresh,
+    /// The multigrid strategy's hierarchy and reuse counters.
+    Multigrid(MultigridState),
+    /// State that is not stored (the sparse Cholesky's factor): a resumed run starts it afresh,
+    /// so its later solves differ within the solver tolerances, not in bits.
+    NotStored,
+}
+
+/// A block pattern as stored: row starts and columns.
+pub type StoredPattern = (Vec<u32>, Vec<u32>);
+
+/// See [`SolverState::Multigrid`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MultigridState {
+    /// The system pattern generation the assembled matrix was made for.
+    pub generation: Option<u64>,
+    /// The pattern of A (row starts, columns), when assembled.
+    pub pattern: Option<StoredPattern>,
+    /// The hierarchy, when built.
+    pub hierarchy: Option<HierarchyState>,
+    /// CG iterations per decade of the first solve after the last build or refresh.
+    pub baseline_rate: Option<f64>,
+    /// CG iterations per decade of the last solve.
+    pub last_rate: f64,
+    /// Whether the last solve ran into the CG cap.
+    pub last_capped: bool,
+    /// Builds, refreshes and pattern changes so far.
+    pub counts: [usize; 3],
+}
+
+/// The matrices a multigrid hierarchy was made from.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HierarchyState {
+    /// The 0/1 mask of free DOFs at the build.
+    pub free: Vec<[f64; 3]>,
+    /// A's blocks at the build (column-major 3×3).
+    pub built: Vec<[f64; 9]>,
+    /// A's blocks at the last refresh, when one followed the build.
+    pub refreshed: Option<Vec<[f64; 9]>>,
+}
+
+/// Blocks as plain arrays (column-major), bit for bit.
+pub(crate) fn blocks_out(blocks: &[Mat3]) -> Vec<[f64; 9]> {
+    blocks
+        .iter()
+        .map(|m| std::array::from_fn(|k| m.as_slice()[k]))
+        .collect()
+}
+
+/// See [`blocks_out`].
+pub(crate) fn blocks_in(blocks: &[[f64; 9]]) -> Vec<Mat3> {
+    blocks.iter().map(|b| Mat3::from_column_slice(b)).collect()
+}
+
+/// Vectors as plain arrays.
+pub(crate) fn vectors_out(v: &[Vec3]) -> Vec<[f64; 3]> {
+    v.iter().map(|v| [v.x, v.y, v.z]).collect()
+}
+
+/// See [`vectors_out`].
+pub(crate) fn vectors_in(v: &[[f64; 3]]) -> Vec<Vec3> {
+    v.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect()
+}
+
+/// A matrix from a stored pattern and blocks, checked for consistency.
+pub(crate) fn matrix_in(
+    pattern: &StoredPattern,
+    blocks: &[[f64; 9]],
+    rows: usize,
+) -> Result<BlockCsr, String> {
+    let pattern = BlockPattern {
+        row_start: pattern.0.clone(),
+        cols: pattern.1.clone(),
+    };
+    if pattern.row_start.len() != rows + 1
+        || pattern.row_start.last().copied() != Some(pattern.cols.len() as u32)
+        || blocks.len() != pattern.cols.len()
+    {
+        return Err(format!(
+            "the stored solver matrix does not fit a system of {rows} vertices"
+        ));
+    }
+    Ok(BlockCsr {
+        pattern,
+        values: blocks_in(blocks),
+    })
+}

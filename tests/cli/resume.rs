@@ -1,0 +1,272 @@
+//! Stopping and resuming (SPEC §14), and an output folder that never mixes two runs: the real
+//! binary killed (SIGKILL), interrupted (SIGINT) and resumed.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use super::{stderr, tetsim};
+
+fn spawn(dir: &Path, args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_tetsim"))
+        .args(args)
+        .current_dir(dir)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the tetsim binary starts")
+}
+
+/// Wait until `file` exists (the run is at least that far), then return at once.
+fn wait_for(child: &mut Child, file: &Path) {
+    let started = Instant::now();
+    while !file.exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!(
+                "the run ended ({status}) before {} appeared",
+                file.display()
+            );
+        }
+        assert!(started.elapsed() < Duration::from_secs(300), "timed out");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+fn signal(child: &Child, name: &str) {
+    let ok = Command::new("kill")
+        .args([&format!("-{name}"), &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "kill -{name}");
+}
+
+fn manifest(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap()
+}
+
+/// Every file of the run but timings.csv (wall-clock times) and the checkpoint, by name.
+fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_string_lossy();
+            name != "timings.csv" && name != "checkpoint.bin" && name != "manifest.json"
+        })
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(&p).unwrap())
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn killed_twice_and_resumed_writes_the_bytes_of_a_run_never_stopped() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["run", "--frames", "24", "--deterministic", "--no-pictures"];
+    let whole = tetsim(dir.path(), &[&args[..], &["--out", "whole"]].concat());
+    assert!(whole.status.success(), "{}", stderr(&whole));
+
+    let run = dir.path().join("stopped");
+    let mut child = spawn(dir.path(), &[&args[..], &["--out", "stopped"]].concat());
+    wait_for(&mut child, &run.join("frame_0007.vtu"));
+    child.kill().unwrap(); // SIGKILL: no chance to tidy up
+    child.wait().unwrap();
+    assert_eq!(manifest(&run)["status"], "running");
+
+    let mut child = spawn(dir.path(), &["run", "--resume", "stopped"]);
+    wait_for(&mut child, &run.join("frame_0016.vtu"));
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    let last = tetsim(dir.path(), &["run", "--resume", "stopped"]);
+    assert!(last.status.success(), "{}", stderr(&last));
+    let (a, b) = (results(&dir.path().join("whole")), results(&run));
+    assert_eq!(
+        a.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        b.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert!(x == y, "{name} differs from the run never stopped");
+    }
+    let (ma, mb) = (manifest(&dir.path().join("whole")), manifest(&run));
+    assert_eq!(mb["status"], "complete");
+    assert_eq!(ma["outputs"], mb["outputs"]);
+    assert_eq!(ma["parameters"], mb["parameters"]);
+    assert_eq!(mb["output_dir"], "stopped");
+}
+
+#[test]
+fn ctrl_c_finishes_the_frame_and_says_how_to_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("out");
+    let mut child = spawn(
+        dir.path(),
+        &["run", "--frames", "40", "--no-pictures", "--out", "out"],
+    );
+    wait_for(&mut child, &run.join("frame_0003.vtu"));
+    assert_eq!(manifest(&run)["status"], "running");
+    signal(&child, "INT");
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("resume with: tetsim run --resume out"),
+        "{err}"
+    );
+    let m = manifest(&run);
+    assert_eq!(m["status"], "interrupted");
+    let frame = m["frame"].as_u64().unwrap() as usize;
+    assert!((3..40).contains(&frame), "{m}");
+    // Every frame up to the one reached, and nothing after it.
+    assert!(run.join(format!("frame_{frame:04}.vtu")).exists());
+    assert!(!run.join(format!("frame_{:04}.vtu", frame + 1)).exists());
+    let rows = std::fs::read_to_string(run.join("steps.csv")).unwrap();
+    assert_eq!(
+        rows.lines().count(),
+        frame + 2,
+        "header and frames 0..={frame}"
+    );
+
+    // Resumed and taken further than it was started for.
+    let out = tetsim(dir.path(), &["run", "--resume", "out", "--frames", "42"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m = manifest(&run);
+    assert_eq!(m["status"], "complete");
+    assert_eq!(m["frame"], 42);
+    let rows = std::fs::read_to_string(run.join("steps.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 44);
+}
+
+#[test]
+fn sigterm_exits_143_with_an_interrupted_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("out");
+    let mut child = spawn(
+        dir.path(),
+        &["run", "--frames", "40", "--no-pictures", "--out", "out"],
+    );
+    wait_for(&mut child, &run.join("frame_0002.vtu"));
+    signal(&child, "TERM");
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(143), "{}", stderr(&out));
+    assert_eq!(manifest(&run)["status"], "interrupted");
+}
+
+#[test]
+fn a_shorter_rerun_leaves_no_frames_of_the_earlier_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = tetsim(dir.path(), &["run", "--frames", "6", "--out", "out"]);
+    assert!(long.status.success(), "{}", stderr(&long));
+    std::fs::write(dir.path().join("out/notes.txt"), "mine").unwrap();
+    let short = tetsim(
+        dir.path(),
+        &["run", "--frames", "2", "--out", "out", "--no-pictures"],
+    );
+    assert!(short.status.success(), "{}", stderr(&short));
+    assert!(
+        stderr(&short).contains("removed") && stderr(&short).contains("earlier run"),
+        "{}",
+        stderr(&short)
+    );
+    let out = dir.path().join("out");
+    assert!(out.join("frame_0002.vtu").exists());
+    for gone in [
+        "frame_0003.vtu",
+        "surface_0006.obj",
+        "animation.gif",
+        "preview.png",
+    ] {
+        assert!(
+            !out.join(gone).exists(),
+            "{gone} of the earlier run is left"
+        );
+    }
+    assert!(
+        out.join("notes.txt").exists(),
+        "a file not ours was removed"
+    );
+    let m = manifest(&out);
+    assert_eq!(m["status"], "complete");
+    assert_eq!(m["frame"], 2);
+    assert_eq!(m["outputs"]["frames"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn a_corrupted_checkpoint_another_version_or_none_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tetsim(
+        dir.path(),
+        &["run", "--frames", "2", "--no-pictures", "--out", "out"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let path = dir.path().join("out/checkpoint.bin");
+    let good = std::fs::read(&path).unwrap();
+
+    let mut bad = good.clone();
+    let k = bad.len() / 2;
+    bad[k] ^= 1;
+    std::fs::write(&path, &bad).unwrap();
+    let out = tetsim(dir.path(), &["run", "--resume", "out", "--frames", "3"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("corrupted"), "{}", stderr(&out));
+
+    let mut other = good.clone();
+    other[8] = 200; // the format version
+    std::fs::write(&path, &other).unwrap();
+    let out = tetsim(dir.path(), &["run", "--resume", "out", "--frames", "3"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("format 200"), "{}", stderr(&out));
+
+    std::fs::create_dir(dir.path().join("empty")).unwrap();
+    let out = tetsim(dir.path(), &["run", "--resume", "empty"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("there is no checkpoint"),
+        "{}",
+        stderr(&out)
+    );
+
+    std::fs::write(&path, &good).unwrap();
+    let out = tetsim(dir.path(), &["run", "--resume", "out", "--frames", "3"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(dir.path().join("out/frame_0003.vtu").exists());
+}
+
+#[test]
+fn bad_picture_settings_fail_before_the_first_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("s.toml"),
+        "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1], cells = [2,2,2] } }\n\
+         [output]\ngif_width = 20000\ndir = \"out\"\n",
+    )
+    .unwrap();
+    let out = tetsim(dir.path(), &["run", "s.toml", "--frames", "3"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("gif_width"), "{}", stderr(&out));
+    assert!(!dir.path().join("out/frame_0001.vtu").exists());
+}
+
+#[test]
+fn a_picture_that_cannot_be_written_costs_the_pictures_not_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("out");
+    // A folder where preview.png should go: the picture cannot be written.
+    std::fs::create_dir_all(out_dir.join("preview.png")).unwrap();
+    let out = tetsim(dir.path(), &["run", "--frames", "3", "--out", "out"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("pictures"), "{}", stderr(&out));
+    let m = manifest(&out_dir);
+    assert_eq!(m["status"], "complete");
+    assert!(
+        m["problems"][0].as_str().unwrap().contains("pictures"),
+        "{m}"
+    );
+    let rows = std::fs::read_to_string(out_dir.join("steps.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 5);
+}
