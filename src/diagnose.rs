@@ -82,6 +82,9 @@ pub fn plausibility_warnings(
             ));
         }
     }
+    if let Some(w) = locking_warning(body) {
+        warnings.push(w);
+    }
     if params.integrator == Integrator::BackwardEuler && size > 0.0 {
         let fall = 0.5 * g * params.dt * params.dt;
         if fall > size {
@@ -93,6 +96,31 @@ pub fn plausibility_warnings(
         }
     }
     warnings
+}
+
+/// λ/μ above which linear tets are said to lock (ν > 0.499).
+pub const LOCKING_RATIO: f64 = 499.0;
+
+/// A warning for a nearly incompressible material (λ/μ > [`LOCKING_RATIO`], ν > 0.499): linear
+/// tets lock and Newton stiffens. λ and μ are read off the rest tangent, whatever the model.
+pub fn locking_warning(body: &ElasticBody) -> Option<String> {
+    let rest = |i: usize, j: usize| {
+        let mut df = Mat3::zeros();
+        df[(i, j)] = 1.0;
+        body.model.stress_differential(&Mat3::identity(), &df)[(i, j)]
+    };
+    let mu = rest(0, 1);
+    let lambda = rest(0, 0) - 2.0 * mu;
+    let ratio = lambda / mu;
+    (mu > 0.0 && ratio > LOCKING_RATIO).then(|| {
+        let nu = lambda / (2.0 * (lambda + mu));
+        format!(
+            "the material is nearly incompressible (ν = {nu:.7}, λ/μ = {ratio:.1e}): linear tets \
+             lock (the body bends far too little) and Newton stiffens (many iterations, slow CG, \
+             frames that may not converge). Use poisson_ratio = 0.45-0.49 unless volume must be \
+             kept exactly; if so, expect it to be slow and raise substeps"
+        )
+    })
 }
 
 /// Everything a run did, gathered frame by frame, and told in words at the end.

@@ -19,6 +19,10 @@ use crate::error::{Error, Result};
 /// How many `[[volume]]` entries a mesh can hold (materials are stored per tet in a byte).
 const MAX_VOLUMES: usize = u8::MAX as usize;
 
+/// Largest λ/μ accepted (ν ≈ 0.499999995): beyond it ε·λ/μ exceeds 2e-8, and Newton on the
+/// default beam already fails to converge at λ/μ = 5e6 (ν = 0.4999999). See `validate` for why.
+pub(crate) const MAX_LAME_RATIO: f64 = 1e8;
+
 /// `max_step_cuts` beyond this would ask for more than 2²⁰ substeps per frame.
 const MAX_STEP_CUTS: usize = 20;
 
@@ -208,6 +212,28 @@ impl Validator<'_> {
                 &at("poisson_ratio"),
                 format!(
                     "Poisson ratio must lie in (-1, 0.5), got {nu} (0.5 is incompressible: λ would be infinite)"
+                ),
+            );
+        }
+        // λ/μ beyond what double precision resolves: the volumetric stress's rounding
+        // (ε·λ/μ of the shear response) swamps the shear response Newton must balance.
+        let ratio = match (nu, mu, lambda) {
+            (Some(nu), _, _) if nu > -1.0 && nu < 0.5 => Some(("poisson_ratio", 2.0 * nu / (1.0 - 2.0 * nu))),
+            (None, Some(mu), Some(lambda)) if mu > 0.0 && lambda.is_finite() => Some(("lambda", lambda / mu)),
+            _ => None,
+        };
+        if let Some((k, ratio)) = ratio
+            && ratio > MAX_LAME_RATIO
+        {
+            self.fail(
+                &at(k),
+                format!(
+                    "nearly incompressible beyond what double precision can solve: λ/μ = {ratio:.1e} \
+                     exceeds {MAX_LAME_RATIO:.0e} (ν ≈ 0.499999995), so rounding of the volumetric \
+                     stress (ε·λ/μ = {:.0e} of the shear stress) swamps the shear response and \
+                     Newton cannot converge; linear tets also lock there. Use poisson_ratio = 0.49 \
+                     or less (rubber is well modelled by 0.45-0.49)",
+                    f64::EPSILON * ratio
                 ),
             );
         }
