@@ -62,6 +62,18 @@ pub fn init_logging(cli: &Cli) {
 /// Dispatch.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     if let Some(threads) = cli.threads {
+        anyhow::ensure!(threads > 0, "--threads must be at least 1");
+        // More threads than cores only adds switching and waiting (2 frames of the default
+        // scene took 19 s at --threads 1000 against 0.3 s on 2 cores).
+        let cores = tetsim::resources::available_cores();
+        let threads = if threads > cores {
+            log::warn!(
+                "--threads {threads}: only {cores} core(s) are available to tetsim; using {cores}"
+            );
+            cores
+        } else {
+            threads
+        };
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build_global()?;

@@ -382,7 +382,8 @@ fn absolute_floor(ctx: &StepContext<'_>, x: &[Vec3]) -> f64 {
     let edge = body.mesh.mean_edge_length();
     let reach = x.iter().map(|p| p.amax()).fold(0.0, f64::max);
     let roots = (body.vertex_count() as f64).sqrt();
-    let mut floor = stiffness * edge * edge * roots * 1e-12_f64.max(POSITION_ROUNDING * reach / edge);
+    let mut floor =
+        stiffness * edge * edge * roots * 1e-12_f64.max(POSITION_ROUNDING * reach / edge);
     if let StepKind::Dynamic { h, .. } = ctx.kind {
         let mass = body.masses().iter().copied().fold(0.0, f64::max);
         floor = floor.max(POSITION_ROUNDING * mass * reach / (h * h) * roots);

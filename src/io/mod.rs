@@ -283,9 +283,36 @@ pub fn atomic_write(
     })
 }
 
-/// Read a whole file, naming it in the error.
-pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| Error::io(path, e))
+/// Read a whole file, naming it in the error. Only a regular file is read, and no further than
+/// the size it had when opened: a directory, a FIFO (which would block), or a device such as
+/// /dev/zero or /dev/urandom (which would be read until memory runs out) is refused in words.
+pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let meta = file.metadata().map_err(|e| Error::io(path, e))?;
+    if meta.is_dir() {
+        return Err(Error::parse(path, None, "is a directory, not a file"));
+    }
+    if !meta.is_file() {
+        return Err(Error::parse(
+            path,
+            None,
+            "is not a regular file (a FIFO, device or socket): tetsim reads only regular files, \
+             whose size is known before reading",
+        ));
+    }
+    let len = meta.len();
+    let mut out = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(len)
+        .read_to_end(&mut out)
+        .map_err(|e| Error::io(path, e))?;
+    Ok(out)
+}
+
+/// [`read_bytes`] as UTF-8 text.
+pub fn read_text(path: &Path) -> Result<String> {
+    String::from_utf8(read_bytes(path)?)
+        .map_err(|e| Error::parse(path, None, format!("is not UTF-8 text: {e}")))
 }
 
 /// File ids → 0-based indices, dense when the ids are (as they almost always are).
@@ -488,7 +515,7 @@ pub fn read_positions(path: &Path, count: usize) -> Result<Vec<crate::math::Vec3
 }
 
 fn read_position_text(path: &Path) -> Result<Vec<crate::math::Vec3>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path)?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();

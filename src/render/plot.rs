@@ -131,7 +131,7 @@ impl StepsTable {
 /// Read `csv_path` (the SPEC §10 `steps.csv`) and write `steps_newton.png`, `steps_cg.png`,
 /// `steps_residual.png` and `steps_energy.png` into `out_dir`. Returns the paths written.
 pub fn plot_steps(csv_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>> {
-    let text = std::fs::read_to_string(csv_path).map_err(|e| Error::io(csv_path, e))?;
+    let text = crate::io::read_text(csv_path)?;
     let table = StepsTable::parse(csv_path, &text)?;
     register_font();
     let mut written = Vec::new();

@@ -68,6 +68,9 @@ impl Scene {
                 for (severity, problem) in read.diagnosis.problems() {
                     log::warn!("{}: {severity:?}: {problem}", path.display());
                 }
+                if let Some(why) = crate::resources::memory_shortfall(read.mesh.tets.len() as f64) {
+                    return Err(self.error_at(&key!["mesh", "file"], why));
+                }
                 Ok(read.mesh)
             }
             (None, Some(Generator::Box { min, max, cells })) => {
