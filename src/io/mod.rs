@@ -180,6 +180,10 @@ pub fn read_mesh_with(path: &Path, options: ReadOptions) -> Result<MeshRead> {
 /// Only the format reader: the mesh as in the file, with nothing dropped, reoriented or checked
 /// beyond what parsing needs. Returns the reader's output and the format's name.
 pub fn parse_mesh(path: &Path) -> Result<(Parsed, String)> {
+    // TetGen's other file (.ele beside a .node) is checked when it is read.
+    if path.exists() {
+        regular_file(path)?;
+    }
     match Format::from_path(path)? {
         Format::Gmsh => gmsh::read(path),
         Format::TetGen => tetgen::read(path).map(|p| (p, "TetGen".to_string())),
@@ -288,18 +292,12 @@ pub fn atomic_write(
 /// /dev/zero or /dev/urandom (which would be read until memory runs out) is refused in words.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     use std::io::Read;
+    // Asked before opening: opening a FIFO blocks until a writer comes.
+    regular_file(path)?;
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let meta = file.metadata().map_err(|e| Error::io(path, e))?;
-    if meta.is_dir() {
-        return Err(Error::parse(path, None, "is a directory, not a file"));
-    }
     if !meta.is_file() {
-        return Err(Error::parse(
-            path,
-            None,
-            "is not a regular file (a FIFO, device or socket): tetsim reads only regular files, \
-             whose size is known before reading",
-        ));
+        return Err(not_regular(path));
     }
     let len = meta.len();
     let mut out = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
@@ -307,6 +305,28 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
         .read_to_end(&mut out)
         .map_err(|e| Error::io(path, e))?;
     Ok(out)
+}
+
+/// Ok when `path` names a regular file (symbolic links followed); a directory, FIFO, device or
+/// socket is refused in words, without opening it.
+pub fn regular_file(path: &Path) -> Result<()> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_dir() {
+        Err(Error::parse(path, None, "is a directory, not a file"))
+    } else if !meta.is_file() {
+        Err(not_regular(path))
+    } else {
+        Ok(())
+    }
+}
+
+fn not_regular(path: &Path) -> Error {
+    Error::parse(
+        path,
+        None,
+        "is not a regular file (a FIFO, device or socket): tetsim reads only regular files, \
+         whose size is known before reading",
+    )
 }
 
 /// [`read_bytes`] as UTF-8 text.

@@ -443,7 +443,8 @@ impl<'de> serde::Deserialize<'de> for Definiteness {
         Definiteness::from_name(&name).ok_or_else(|| {
             let names: Vec<&str> = Definiteness::ALL.iter().map(|d| d.name()).collect();
             serde::de::Error::custom(format!(
-                "unknown definiteness strategy \"{name}\", expected one of {}",
+                "unknown definiteness strategy \"{}\", expected one of {}",
+                crate::error::clip(&name),
                 names.join(", ")
             ))
         })
@@ -457,7 +458,8 @@ impl<'de> serde::Deserialize<'de> for ModelKind {
         ModelKind::from_name(&name).ok_or_else(|| {
             let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
             serde::de::Error::custom(format!(
-                "unknown material model \"{name}\", expected one of {}",
+                "unknown material model \"{}\", expected one of {}",
+                crate::error::clip(&name),
                 names.join(", ")
             ))
         })

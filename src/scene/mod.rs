@@ -64,7 +64,9 @@ impl Scene {
             let (line, column) = offset.map_or((1, 1), |o| line_column(text, o));
             let at = Locator::new(text);
             let key = offset.map(|o| at.path_at(o)).unwrap_or_default();
-            let message = e.message().trim();
+            // serde quotes the offending value whole (`unknown variant `…``): clip long words.
+            let message = crate::error::clip_words(e.message().trim());
+            let message = message.as_str();
             Error::Scene {
                 path: path.to_path_buf(),
                 line,
