@@ -498,15 +498,19 @@ fn initial_ledger(body: &ElasticBody, boundary: &Boundary, free: &[Vec3], x: &[V
     let n = body.vertex_count();
     let mut loads = vec![Vec3::zeros(); n];
     boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
-    let mut reactions = vec![Vec3::zeros(); n];
-    body.add_forces(x, &mut reactions);
-    for ((r, l), m) in reactions.iter_mut().zip(&loads).zip(free) {
-        *r = -(*r + l).component_mul(&(Vec3::repeat(1.0) - m));
-    }
+    let mut forces = vec![Vec3::zeros(); n];
+    body.add_forces(x, &mut forces);
+    let reactions = forces
+        .iter()
+        .zip(&loads)
+        .zip(free)
+        .map(|((f, l), m)| -(f + l).component_mul(&(Vec3::repeat(1.0) - m)))
+        .collect();
     Ledger {
         elastic: body.energy(x),
         loads,
         reactions,
+        forces,
     }
 }
 

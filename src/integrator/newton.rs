@@ -157,6 +157,7 @@ impl Newton {
         let first = eval.residual;
         let mut eta = FORCING_MAX;
         info.clamped_tets = self.linearization().clamped_tets();
+        info.strongly_clamped_tets = self.linearization().strongly_clamped_tets();
         loop {
             info.history.push(eval.residual);
             info.residual = eval.residual;
@@ -240,6 +241,9 @@ impl Newton {
                 }
             }
             info.clamped_tets = info.clamped_tets.max(self.linearization().clamped_tets());
+            info.strongly_clamped_tets = info
+                .strongly_clamped_tets
+                .max(self.linearization().strongly_clamped_tets());
         }
         info.timings = self.timings;
         info
