@@ -18,7 +18,7 @@ pub struct Cli {
     /// Print only errors.
     #[arg(short, long, global = true)]
     pub quiet: bool,
-    /// More log output (-v: per Newton iteration, -vv: everything).
+    /// More log output (-v: one line per frame, -vv: one per Newton iteration, -vvv: everything).
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
     /// Worker threads (default: all cores).
@@ -79,7 +79,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             .build_global()?;
     }
     match cli.command {
-        Command::Run(args) => run::run(args, cli.quiet),
+        Command::Run(args) => run::run(args, cli.quiet, cli.verbose),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Render(args) => render::run(args, cli.quiet),
         Command::Compare(args) => compare::run(args, cli.quiet),

@@ -40,7 +40,7 @@ pub struct RunArgs {
 /// Frames kept in memory for the pictures: (frame, time, positions, field values, obstacles).
 type Kept = Vec<(usize, f64, Vec<Vec3>, Vec<f64>, ObstacleView)>;
 
-pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> {
     let mut scene = match &args.scene {
         Some(path) => Scene::load(path)?,
         None => Scene::default(),
@@ -102,7 +102,8 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let frames = sim.params.frames;
     let mut display = RunDisplay::new(
         frames,
-        if quiet {
+        // -v logs one line per frame (below); a progress display beside it would interleave.
+        if quiet || verbose > 0 {
             DisplayMode::Quiet
         } else {
             DisplayMode::Auto
@@ -141,6 +142,17 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
                 warnings.push(w);
             }
         }
+        log::info!(
+            "frame {}/{frames}  t={:.4} s  Newton {}  CG {}  relative residual {:.1e}  residual {:.2e} N  min J {:.3}{}",
+            stats.frame,
+            stats.time,
+            stats.newton_iterations,
+            stats.cg_iterations,
+            stats.relative_residual,
+            stats.residual,
+            stats.min_j,
+            if stats.converged { "" } else { "  NOT CONVERGED" }
+        );
         display.frame_done(&FrameReport {
             frame: stats.frame,
             time: stats.time,
@@ -166,6 +178,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         keep(&sim, &mut kept);
     }
 
+    let drawing = std::time::Instant::now();
     let mut pictures = Vec::new();
     if scene.output.pictures && !kept.is_empty() {
         pictures.extend(draw(&scene, &sim, field, &kept, &out).context("rendering the pictures")?);
@@ -175,6 +188,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             render::plot_steps(&out.join("steps.csv"), &out).context("plotting steps.csv")?,
         );
     }
+    display.add_pictures(drawing.elapsed());
     let status = failure
         .as_ref()
         .map_or("complete".to_string(), |e| format!("stopped: {e}"));

@@ -224,7 +224,7 @@ impl Newton {
             match searched {
                 Some(next) => {
                     log::debug!(
-                        "Newton {}: residual {:.3e} → {:.3e}, {} CG, {} line-search cuts",
+                        "Newton {}: residual {:.3e} N → {:.3e} N, {} CG, {} line-search cuts",
                         info.iterations,
                         eval.residual,
                         next.residual,
