@@ -14,8 +14,15 @@
 //! ```
 //!
 //! D_num, backward Euler's own numerical dissipation, is what remains: positive for a convex
-//! energy and a converged step. A remainder below −tolerance (tolerance = |r·Δx| plus rounding of
-//! the terms) means the step created energy, and is flagged.
+//! energy and a converged step. A remainder below −tolerance means the step created energy, and
+//! is flagged. The tolerance is |r·Δx|, plus rounding relative to the energies in play (the
+//! levels K and E at both ends, not only their changes: a cube gliding at 1 m/s carries 600 J
+//! whose rounding alone is 1e-13 J a step), plus what a non-convex energy may give back: the
+//! Bregman term E(xⁿ) − E(xⁿ⁺¹) − ∇E(xⁿ⁺¹)·(xⁿ − xⁿ⁺¹) is then negative, by about the
+//! trapezoid estimate ½(f_el(xⁿ) − f_el(xⁿ⁺¹))·Δx (tets crushed inside out, a bar twisted past
+//! buckling). That estimate uses forces, not energies, so a wrong derivative (forces that are
+//! not −∇E) still shows in the remainder, and invented kinetic energy is flagged whatever the
+//! curvature. Half the estimate's size is allowed on top for its own error.
 //!
 //! **Quasistatic** (no inertia, loads and gravity ramped): `ΔE = W_load + W_bound − D_num`, the
 //! works by the trapezoid rule over the load step (gravity counts as a load). D_num is then the
@@ -71,6 +78,9 @@ pub struct Ledger {
     pub loads: Vec<Vec3>,
     /// Reactions at the current state, N (quasistatic).
     pub reactions: Vec<Vec3>,
+    /// Elastic forces f_el at the current state, N (empty when unknown: then no allowance for a
+    /// non-convex energy is made).
+    pub forces: Vec<Vec3>,
 }
 
 /// Everything one step's audit reads. Slices are per vertex.
@@ -106,6 +116,9 @@ pub struct StepRecord<'a> {
 /// Relative rounding allowance on the sum of the magnitudes of all terms.
 const ROUNDING: f64 = 1e-9;
 
+/// The share of the trapezoid curvature estimate allowed for its own error.
+const CURVATURE_ERROR: f64 = 0.5;
+
 /// Quasistatic: the share of the works the trapezoid rule may miss before a remainder counts.
 const QUADRATURE: f64 = 0.05;
 
@@ -115,7 +128,8 @@ pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
     let n = masses.len();
     let (mut load_work, mut boundary_work, mut damping, mut kinetic_change) = (0.0, 0.0, 0.0, 0.0);
     let (mut residual_work, mut gravitational) = (0.0, 0.0);
-    let mut potential_change = 0.0;
+    let (mut potential_change, mut kinetic_level, mut curvature) = (0.0, 0.0, 0.0);
+    let curvature_known = ledger.forces.len() == n;
     let quasistatic = r.dynamic.is_none();
     if quasistatic {
         ledger.loads.resize(n, Vec3::zeros());
@@ -131,6 +145,9 @@ pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
         let load = r.f_ext[i] - gravity_force;
         gravitational -= gravity_force.dot(&r.x[i]);
         residual_work += r.residual[i].dot(&dx);
+        if curvature_known {
+            curvature += 0.5 * (ledger.forces[i] - r.f_el[i]).dot(&dx);
+        }
         match r.dynamic {
             Some((h, gamma, alpha)) => {
                 let (v, vn) = (r.v[i], r.vn[i]);
@@ -141,6 +158,7 @@ pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
                 boundary_work += reaction.dot(&dx);
                 damping += h * v.dot(&(gamma * r.kv[i] + alpha * m * v));
                 kinetic_change += 0.5 * m * (v.norm_squared() - vn.norm_squared());
+                kinetic_level += 0.5 * m * (v.norm_squared() + vn.norm_squared());
                 potential_change -= gravity_force.dot(&dx);
             }
             None => {
@@ -158,15 +176,21 @@ pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
     let magnitude = load_work.abs()
         + boundary_work.abs()
         + damping.abs()
-        + kinetic_change.abs()
+        + kinetic_level
         + r.elastic.abs()
         + ledger.elastic.abs()
         + potential_change.abs();
-    let mut tolerance = residual_work.abs() + ROUNDING * magnitude;
+    // What a non-convex stretch may give back, plus half the curvature term for the trapezoid
+    // estimate's own (third-order) error: on scenes/squash_release.toml's frame 15 (tets crushed
+    // inside out as the plate stops) the remainder is −21.0 J against an estimate of −21.4 J.
+    let convexity = (-curvature).max(0.0) + CURVATURE_ERROR * curvature.abs();
+    let mut tolerance = residual_work.abs() + ROUNDING * magnitude + convexity;
     if quasistatic {
         tolerance += QUADRATURE * (load_work.abs() + boundary_work.abs() + elastic_change.abs());
     }
     ledger.elastic = r.elastic;
+    ledger.forces.clear();
+    ledger.forces.extend_from_slice(r.f_el);
     EnergyAudit {
         gravitational,
         load_work,

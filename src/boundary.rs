@@ -65,9 +65,14 @@ impl Region {
             Region::Physical(name) => match mesh.group(name) {
                 Some(group) => group.vertices.clone(),
                 None => {
-                    let known: Vec<&str> = mesh.groups.iter().map(|g| g.name.as_str()).collect();
+                    let known: Vec<String> = mesh
+                        .groups
+                        .iter()
+                        .map(|g| crate::error::clip(&g.name))
+                        .collect();
                     return Err(format!(
-                        "the mesh has no group named \"{name}\" (it has: {})",
+                        "the mesh has no group named \"{}\" (it has: {})",
+                        crate::error::clip(name),
                         if known.is_empty() {
                             "none".to_string()
                         } else {

@@ -82,6 +82,9 @@ pub fn plausibility_warnings(
             ));
         }
     }
+    if let Some(w) = locking_warning(body) {
+        warnings.push(w);
+    }
     if params.integrator == Integrator::BackwardEuler && size > 0.0 {
         let fall = 0.5 * g * params.dt * params.dt;
         if fall > size {
@@ -93,6 +96,34 @@ pub fn plausibility_warnings(
         }
     }
     warnings
+}
+
+/// Newton iterations per step from which a frame counts as slow (for the clamping note).
+pub const SLOW_NEWTON: usize = 8;
+
+/// λ/μ above which linear tets are said to lock (ν > 0.499).
+pub const LOCKING_RATIO: f64 = 499.0;
+
+/// A warning for a nearly incompressible material (λ/μ > [`LOCKING_RATIO`], ν > 0.499): linear
+/// tets lock and Newton stiffens. λ and μ are read off the rest tangent, whatever the model.
+pub fn locking_warning(body: &ElasticBody) -> Option<String> {
+    let rest = |i: usize, j: usize| {
+        let mut df = Mat3::zeros();
+        df[(i, j)] = 1.0;
+        body.model.stress_differential(&Mat3::identity(), &df)[(i, j)]
+    };
+    let mu = rest(0, 1);
+    let lambda = rest(0, 0) - 2.0 * mu;
+    let ratio = lambda / mu;
+    (mu > 0.0 && ratio > LOCKING_RATIO).then(|| {
+        let nu = lambda / (2.0 * (lambda + mu));
+        format!(
+            "the material is nearly incompressible (ν = {nu:.7}, λ/μ = {ratio:.1e}): linear tets \
+             lock (the body bends far too little) and Newton stiffens (many iterations, slow CG, \
+             frames that may not converge). Use poisson_ratio = 0.45-0.49 unless volume must be \
+             kept exactly; if so, expect it to be slow and raise substeps"
+        )
+    })
 }
 
 /// Everything a run did, gathered frame by frame, and told in words at the end.
@@ -114,7 +145,8 @@ pub struct RunSummary {
     pub cg_breakdowns: usize,
     /// Line-search halvings over the run.
     pub line_search_cuts: usize,
-    /// Most tets clamped at once, and the frame.
+    /// Most tets strongly clamped at once (beyond rounding) in a slow or failed frame, and the
+    /// frame.
     pub most_clamped: (usize, usize),
     /// Frames whose energy audit found energy created, with the joules.
     pub energy_injected: Vec<(usize, f64)>,
@@ -143,8 +175,10 @@ impl RunSummary {
         self.cg_capped += s.cg_capped;
         self.cg_breakdowns += s.cg_breakdowns;
         self.line_search_cuts += s.line_search_cuts;
-        if s.clamped_tets > self.most_clamped.0 {
-            self.most_clamped = (s.clamped_tets, s.frame);
+        // Clamping explains slow Newton; on a frame that converged quickly it is no news.
+        let slow = !s.converged || s.newton_iterations >= SLOW_NEWTON * s.substeps.max(1);
+        if slow && s.strongly_clamped_tets > self.most_clamped.0 {
+            self.most_clamped = (s.strongly_clamped_tets, s.frame);
         }
         let injected = s.energy.injected();
         if injected > 0.0 {
@@ -213,9 +247,10 @@ impl RunSummary {
         if self.most_clamped.0 > 0 {
             let (count, frame) = self.most_clamped;
             out.push(format!(
-                "up to {count} of {} tets ({:.1} %, frame {frame}) needed their tangent clamped \
-                 to stay positive definite (Teran 2005): they were compressed, inverted or \
-                 strongly stretched; expect more Newton iterations there",
+                "in frames that took {SLOW_NEWTON} or more Newton iterations a step, up to {count} \
+                 of {} tets ({:.1} %, frame {frame}) had their tangent clamped by more than 1 % of \
+                 its stiffness to stay positive definite (Teran 2005): they were compressed, \
+                 inverted or strongly stretched, which slows Newton there",
                 body.tet_count(),
                 100.0 * count as f64 / body.tet_count() as f64
             ));

@@ -394,6 +394,7 @@ impl ElasticBody {
             .iter()
             .filter(|t| t.clamped_pieces() > 0)
             .count();
+        lin.strongly_clamped_tets = lin.tangents.iter().filter(|t| t.strongly_clamped()).count();
         lin.inverted_tets = lin.tangents.iter().filter(|t| t.is_inverted()).count();
         lin.chunk_energy.iter().sum()
     }
@@ -669,6 +670,7 @@ pub struct Linearization {
     buffer: Vec<TetVectors>,
     chunk_energy: Vec<f64>,
     clamped_tets: usize,
+    strongly_clamped_tets: usize,
     inverted_tets: usize,
 }
 
@@ -689,6 +691,7 @@ impl Linearization {
             buffer: vec![[Vec3::zeros(); 4]; n],
             chunk_energy: vec![0.0; n.div_ceil(CHUNK)],
             clamped_tets: 0,
+            strongly_clamped_tets: 0,
             inverted_tets: 0,
         }
     }
@@ -706,6 +709,12 @@ impl Linearization {
     /// How many tets had part of their tangent clamped by the definiteness fix.
     pub fn clamped_tets(&self) -> usize {
         self.clamped_tets
+    }
+
+    /// How many tets had a piece of their tangent clamped by more than rounding (see
+    /// [`crate::material::STRONG_CLAMP`]).
+    pub fn strongly_clamped_tets(&self) -> usize {
+        self.strongly_clamped_tets
     }
 
     /// How many tets were inverted or flat (σ₃ ≤ 0).

@@ -98,6 +98,37 @@ impl Error {
     }
 }
 
+/// Longest name (of a group, model, strategy, field, …) quoted whole in a message.
+pub const NAME_CHARS: usize = 60;
+
+/// `name` for a message: whole up to [`NAME_CHARS`] characters, else cut there with its
+/// length said, so that a pasted blob does not flood the terminal.
+pub fn clip(name: &str) -> String {
+    let count = name.chars().count();
+    if count <= NAME_CHARS {
+        name.to_string()
+    } else {
+        let head: String = name.chars().take(NAME_CHARS).collect();
+        format!("{head}… ({count} characters)")
+    }
+}
+
+/// [`clip`] every over-long word of a message (one quoting a pasted blob), leaving words a
+/// message already clipped alone.
+pub fn clip_words(message: &str) -> String {
+    message
+        .split(' ')
+        .map(|w| {
+            if w.chars().count() > NAME_CHARS + 20 {
+                clip(w)
+            } else {
+                w.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// What can be wrong with a mesh. Elements and vertices are named by their ids in the source
 /// file when the mesh came from one (see `TetMesh::tet_ids`), else by 0-based index.
 #[derive(Clone, Debug, PartialEq)]

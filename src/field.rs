@@ -100,7 +100,11 @@ impl FromStr for FieldKind {
                 let names: Vec<&str> = FieldKind::ALL.iter().map(|k| k.name()).collect();
                 Error::parameter(
                     "render.field",
-                    format!("unknown field {s:?}; expected one of {}", names.join(", ")),
+                    format!(
+                        "unknown field \"{}\"; expected one of {}",
+                        crate::error::clip(s),
+                        names.join(", ")
+                    ),
                 )
             })
     }

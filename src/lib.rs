@@ -54,6 +54,7 @@
 //! - [`diagnose`]: what went wrong, in words: inverted elements, run summary, warnings.
 //! - [`field`]: the fields pictures are coloured by (displacement, J, von Mises, Ψ).
 //! - [`error`]: typed, located errors.
+//! - [`resources`]: memory and cores a run may ask for, checked before it asks.
 //!
 //! Behind cargo features (see below):
 //! - `linear::direct` and `linear::cholesky` (feature `direct`): faer's sparse Cholesky of the
@@ -101,6 +102,7 @@ pub mod output;
 pub mod progress;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod resources;
 pub mod scene;
 pub mod sim;
 

@@ -23,7 +23,8 @@ pub struct FrameReport {
     pub newton_iterations: usize,
     /// CG iterations of the frame (summed over its Newton iterations).
     pub cg_iterations: usize,
-    /// Final residual norm.
+    /// Final residual relative to the step's first (steps.csv's `relative_residual`; the
+    /// absolute one, in N, is its `residual`).
     pub residual: f64,
     /// Whether every solve of the frame converged.
     pub converged: bool,
@@ -104,6 +105,8 @@ pub struct RunDisplay {
     total: usize,
     totals: RunTotals,
     start: Instant,
+    /// Time spent drawing pictures and plots, reported apart from the simulation's.
+    pictures: Duration,
 }
 
 impl RunDisplay {
@@ -122,6 +125,7 @@ impl RunDisplay {
             total: total_frames,
             totals: RunTotals::default(),
             start: Instant::now(),
+            pictures: Duration::ZERO,
         }
     }
 
@@ -132,7 +136,7 @@ impl RunDisplay {
         match &self.output {
             Output::Bar(bar) => {
                 let mut msg = format!(
-                    "t={:.3} s  Newton {}  CG {}  r={:.1e}",
+                    "t={:.3} s  Newton {}  CG {}  relative residual {:.1e}",
                     report.time, report.newton_iterations, report.cg_iterations, report.residual
                 );
                 if !self.totals.not_converged.is_empty() {
@@ -175,7 +179,14 @@ impl RunDisplay {
         if let Output::Bar(bar) = &self.output {
             bar.finish_and_clear();
         }
-        summary(&self.totals, self.start.elapsed(), out_dir, files)
+        let wall = self.start.elapsed().saturating_sub(self.pictures);
+        summary(&self.totals, wall, self.pictures, out_dir, files)
+    }
+
+    /// Count `took` as drawing pictures and plots: the summary's frames/s leaves it out and
+    /// says it apart.
+    pub fn add_pictures(&mut self, took: Duration) {
+        self.pictures += took;
     }
 
     fn plain_line(&self, r: &FrameReport) -> String {
@@ -192,7 +203,7 @@ impl RunDisplay {
             0.0
         };
         format!(
-            "frame {}/{}  t={:.3} s  Newton {}  CG {}  residual {:.1e}{}  min J {:.3}  ({:.1} frames/s, ETA {})",
+            "frame {}/{}  t={:.3} s  Newton {}  CG {}  relative residual {:.1e}{}  min J {:.3}  ({:.1} frames/s, ETA {})",
             r.frame,
             self.total,
             r.time,
@@ -225,7 +236,15 @@ fn progress_bar(total: usize) -> ProgressBar {
 /// The one-screen end-of-run summary: frames and wall time, Newton and CG totals, the worst
 /// residual, the smallest J, the frames that did not converge, and where the files are
 /// (numbered series such as `frame_0000.vtu … frame_0060.vtu` collapsed to one line).
-pub fn summary(totals: &RunTotals, wall: Duration, out_dir: &Path, files: &[PathBuf]) -> String {
+/// `wall` is the simulation's time (frames and their files), `pictures` the drawing's, said apart
+/// (zero: not said).
+pub fn summary(
+    totals: &RunTotals,
+    wall: Duration,
+    pictures: Duration,
+    out_dir: &Path,
+    files: &[PathBuf],
+) -> String {
     let mut s = String::new();
     let secs = wall.as_secs_f64();
     let rate = if secs > 0.0 {
@@ -233,9 +252,14 @@ pub fn summary(totals: &RunTotals, wall: Duration, out_dir: &Path, files: &[Path
     } else {
         String::new()
     };
+    let drawing = if pictures > Duration::ZERO {
+        format!("; pictures and plots {}", format_duration(pictures))
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         s,
-        "tetsim: {} frame{} in {}{rate}",
+        "tetsim: {} frame{} in {}{rate}{drawing}",
         totals.frames,
         if totals.frames == 1 { "" } else { "s" },
         format_duration(wall)
@@ -264,7 +288,11 @@ pub fn summary(totals: &RunTotals, wall: Duration, out_dir: &Path, files: &[Path
         ),
     );
     if let Some((r, f)) = totals.worst_residual {
-        row(&mut s, "worst residual", &format!("{r:.2e} (frame {f})"));
+        row(
+            &mut s,
+            "worst relative residual",
+            &format!("{r:.2e} (frame {f})"),
+        );
     }
     if let Some((j, f)) = totals.min_j {
         let note = if j <= 0.0 { ": inverted elements" } else { "" };
@@ -423,7 +451,13 @@ mod tests {
         for name in ["frames.pvd", "steps.csv", "preview.png", "animation.gif"] {
             files.push(out.join(name));
         }
-        let s = summary(&t, Duration::from_secs_f64(12.5), out, &files);
+        let s = summary(
+            &t,
+            Duration::from_secs_f64(12.5),
+            Duration::ZERO,
+            out,
+            &files,
+        );
         assert!(s.lines().count() <= 20, "{s}");
         assert!(s.contains("60 frames in 12.5 s"), "{s}");
         assert!(s.contains("Newton iterations  180"), "{s}");

@@ -429,10 +429,14 @@ impl Simulation {
             t: saved.t,
         };
         self.free = vectors_in(&saved.free);
+        // The elastic forces at the saved state are a function of it: recomputed, not stored.
+        let mut forces = vec![Vec3::zeros(); self.state.x.len()];
+        self.body.add_forces(&self.state.x, &mut forces);
         self.ledger = Ledger {
             elastic: saved.ledger.0,
             loads: vectors_in(&saved.ledger.1),
             reactions: vectors_in(&saved.ledger.2),
+            forces,
         };
         self.saved_ledger.clone_from(&self.ledger);
         self.ledger_x.clone_from(&self.state.x);
@@ -600,15 +604,19 @@ fn initial_ledger(body: &ElasticBody, boundary: &Boundary, free: &[Vec3], x: &[V
     let n = body.vertex_count();
     let mut loads = vec![Vec3::zeros(); n];
     boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
-    let mut reactions = vec![Vec3::zeros(); n];
-    body.add_forces(x, &mut reactions);
-    for ((r, l), m) in reactions.iter_mut().zip(&loads).zip(free) {
-        *r = -(*r + l).component_mul(&(Vec3::repeat(1.0) - m));
-    }
+    let mut forces = vec![Vec3::zeros(); n];
+    body.add_forces(x, &mut forces);
+    let reactions = forces
+        .iter()
+        .zip(&loads)
+        .zip(free)
+        .map(|((f, l), m)| -(f + l).component_mul(&(Vec3::repeat(1.0) - m)))
+        .collect();
     Ledger {
         elastic: body.energy(x),
         loads,
         reactions,
+        forces,
     }
 }
 

@@ -18,7 +18,7 @@ use tetsim::diagnose::{RunSummary, plausibility_warnings};
 use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
 use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
-use tetsim::{Scene, Simulation};
+use tetsim::{Scene, Simulation, Vec3};
 
 /// Arguments of `tetsim run`.
 #[derive(Debug, clap::Args)]
@@ -47,7 +47,7 @@ pub struct RunArgs {
     pub resume: Option<PathBuf>,
 }
 
-pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> {
     let stop = watch_signals()?;
     let (scene, mut record, checkpoint) = match &args.resume {
         Some(dir) => resumed(dir, args.frames)?,
@@ -114,7 +114,8 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let frames = sim.params.frames;
     let mut display = RunDisplay::new(
         frames.saturating_sub(first),
-        if quiet {
+        // -v logs one line per frame (below); a progress display beside it would interleave.
+        if quiet || verbose > 0 {
             DisplayMode::Quiet
         } else {
             DisplayMode::Auto
@@ -140,22 +141,43 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         save(&sim, &recorder)?;
         summary.add(&stats, sim.params.substeps);
         if stats.frame == 1 {
+            // How far a vertex moved apart from the body's mean motion: a body launched at
+            // 1e4 m/s moves far, rigidly, and that is no sign of a wrong unit.
+            let n = sim.state.x.len().max(1) as f64;
+            let mean = sim
+                .state
+                .x
+                .iter()
+                .zip(sim.initial_positions())
+                .fold(Vec3::zeros(), |s, (x, x0)| s + (x - x0))
+                / n;
             let moved = sim
                 .state
                 .x
                 .iter()
                 .zip(sim.initial_positions())
-                .map(|(x, x0)| (x - x0).norm())
+                .map(|(x, x0)| (x - x0 - mean).norm())
                 .fold(0.0, f64::max);
             if moved > body_size {
                 let w = format!(
-                    "frame 1 moved a vertex {moved:.3e} m, more than the body's size ({body_size:.3e} m): \
+                    "frame 1 moved a vertex {moved:.3e} m relative to the body's mean motion, more than the body's size ({body_size:.3e} m): \
                      the body may be far too soft for its weight or loads, or dt far too large"
                 );
                 log::warn!("{w}");
                 warnings.push(w);
             }
         }
+        log::info!(
+            "frame {}/{frames}  t={:.4} s  Newton {}  CG {}  relative residual {:.1e}  residual {:.2e} N  min J {:.3}{}",
+            stats.frame,
+            stats.time,
+            stats.newton_iterations,
+            stats.cg_iterations,
+            stats.relative_residual,
+            stats.residual,
+            stats.min_j,
+            if stats.converged { "" } else { "  NOT CONVERGED" }
+        );
         display.frame_done(&FrameReport {
             frame: stats.frame,
             time: stats.time,
@@ -179,6 +201,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
 
     let mut files = recorder.files().to_vec();
     let mut picture_error = None;
+    let drawing = std::time::Instant::now();
     if !interrupted {
         match draw(&scene, &pictures, &out, sim.frame()) {
             Ok(written) => files.extend(written),
@@ -189,6 +212,7 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             }
         }
     }
+    display.add_pictures(drawing.elapsed());
     let text = display.finish(&out, &files);
     if !quiet {
         eprintln!("{text}");

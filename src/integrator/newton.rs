@@ -153,15 +153,25 @@ impl Newton {
         // while the barrier's stiffness puts rounding far above a fraction of it: the tolerance
         // then also counts against the loads (‖f_ext‖, the weight), as users of the peers
         // expect. Without contact the floor is as it always was.
-        let mut floor = absolute_floor(ctx.body);
+        let mut floor = absolute_floor(ctx, x);
+        let drive = self.drive(ctx);
         if self.potential.contact.is_some() {
             let loads = cg::dot(ctx.f_ext, ctx.f_ext, &mut self.partials).sqrt();
             floor = floor.max(params.newton_tolerance * loads);
         }
+        // Before any iteration the floor may not exceed the tolerance on what drives the step
+        // (loads, momentum): a stiffness-scaled floor (λ + 2μ grows without bound as ν → ½)
+        // would otherwise swallow an unbalanced load and declare the unmoved body converged.
+        let first_floor = if drive > 0.0 {
+            floor.min(params.newton_tolerance * drive)
+        } else {
+            floor
+        };
         let mut eval = self.evaluate(ctx, x, v);
         let first = eval.residual;
         let mut eta = FORCING_MAX;
         info.clamped_tets = self.linearization().clamped_tets();
+        info.strongly_clamped_tets = self.linearization().strongly_clamped_tets();
         loop {
             info.history.push(eval.residual);
             info.residual = eval.residual;
@@ -175,7 +185,12 @@ impl Newton {
                 info.failure = Some("the residual became non-finite".into());
                 break;
             }
-            if eval.residual <= floor || eval.residual <= params.newton_tolerance * first {
+            let floor_now = if info.iterations == 0 {
+                first_floor
+            } else {
+                floor
+            };
+            if eval.residual <= floor_now || eval.residual <= params.newton_tolerance * first {
                 info.converged = true;
                 break;
             }
@@ -223,7 +238,7 @@ impl Newton {
             match searched {
                 Some(next) => {
                     log::debug!(
-                        "Newton {}: residual {:.3e} → {:.3e}, {} CG, {} line-search cuts",
+                        "Newton {}: residual {:.3e} N → {:.3e} N, {} CG, {} line-search cuts",
                         info.iterations,
                         eval.residual,
                         next.residual,
@@ -240,6 +255,9 @@ impl Newton {
                 }
             }
             info.clamped_tets = info.clamped_tets.max(self.linearization().clamped_tets());
+            info.strongly_clamped_tets = info
+                .strongly_clamped_tets
+                .max(self.linearization().strongly_clamped_tets());
         }
         info.timings = self.timings;
         info
@@ -284,6 +302,21 @@ impl Newton {
     /// search on ‖rhs‖ is the judge.
     fn is_descent(&mut self, ctx: &StepContext<'_>) -> bool {
         !ctx.has_potential() || cg::dot(&self.rhs, &self.dx, &mut self.partials) > 0.0
+    }
+
+    /// What drives the step, N: ‖f_ext‖ and, for a dynamic step, ‖M·vⁿ/h‖ over the free DOFs
+    /// (the scale against which "balanced at the start" is judged).
+    fn drive(&mut self, ctx: &StepContext<'_>) -> f64 {
+        let masses = ctx.body.masses();
+        let mut sum = 0.0;
+        for (i, (f, free)) in ctx.f_ext.iter().zip(ctx.free).enumerate() {
+            let mut d = f.component_mul(free).norm_squared();
+            if let StepKind::Dynamic { vn, h, .. } = ctx.kind {
+                d += (masses[i] / h * vn[i]).component_mul(free).norm_squared();
+            }
+            sum += d;
+        }
+        sum.sqrt()
     }
 
     /// Evaluate every term at x (linearizing), fill `self.rhs` (masked) and `v` (dynamic), and
@@ -353,13 +386,28 @@ fn forcing_term(
 const FORCING_MAX: f64 = 0.1;
 
 /// Absolute residual floor: 1e-12 of the characteristic force E·ℓ²·√n (E from the material at
-/// rest), so that a body at rest is converged before any iteration.
-fn absolute_floor(body: &ElasticBody) -> f64 {
+/// rest), so that a body at rest is converged before any iteration; raised where rounding of
+/// the positions themselves is larger (a body far from the origin, e.g. moving at 1e4 m/s):
+/// an error of ε·|x| in the coordinates makes an elastic force error of about E·ℓ·ε·|x| per
+/// vertex and an inertia error of about m·ε·|x|/h².
+fn absolute_floor(ctx: &StepContext<'_>, x: &[Vec3]) -> f64 {
     use crate::material::Material;
+    let body = ctx.body;
     // The rest tangent's ∂P₁₁/∂F₁₁ = λ + 2μ stands in for E: a scale, not a measurement.
     let mut df = Mat3::zeros();
     df[(0, 0)] = 1.0;
     let stiffness = body.model.stress_differential(&Mat3::identity(), &df)[(0, 0)].abs();
     let edge = body.mesh.mean_edge_length();
-    1e-12 * stiffness * edge * edge * (body.vertex_count() as f64).sqrt()
+    let reach = x.iter().map(|p| p.amax()).fold(0.0, f64::max);
+    let roots = (body.vertex_count() as f64).sqrt();
+    let mut floor =
+        stiffness * edge * edge * roots * 1e-12_f64.max(POSITION_ROUNDING * reach / edge);
+    if let StepKind::Dynamic { h, .. } = ctx.kind {
+        let mass = body.masses().iter().copied().fold(0.0, f64::max);
+        floor = floor.max(POSITION_ROUNDING * mass * reach / (h * h) * roots);
+    }
+    floor
 }
+
+/// Coordinates carry a relative rounding of ε; the floor allows a hundred times that.
+const POSITION_ROUNDING: f64 = 100.0 * f64::EPSILON;

@@ -22,6 +22,9 @@ pub struct NewtonInfo {
     pub cg_capped: usize,
     /// Most tets with a clamped tangent at any iterate.
     pub clamped_tets: usize,
+    /// Most tets with a strongly clamped tangent at any iterate (beyond rounding; see
+    /// [`crate::material::STRONG_CLAMP`]).
+    pub strongly_clamped_tets: usize,
     /// `adaptive` definiteness: Newton iterates whose exact-tangent direction was given up for
     /// the projected one (CG met negative curvature, no descent, or the line search failed).
     pub projected_fallbacks: usize,
@@ -46,6 +49,7 @@ impl NewtonInfo {
         self.cg_capped += more.cg_capped;
         self.projected_fallbacks += more.projected_fallbacks;
         self.clamped_tets = self.clamped_tets.max(more.clamped_tets);
+        self.strongly_clamped_tets = self.strongly_clamped_tets.max(more.strongly_clamped_tets);
         self.residual = more.residual;
         self.relative_residual = more.relative_residual;
         self.converged = more.converged;
@@ -113,6 +117,8 @@ pub struct StepStats {
     pub cg_capped: usize,
     /// Most tets with a clamped tangent at any iterate.
     pub clamped_tets: usize,
+    /// Most tets with a strongly clamped tangent at any iterate (not in steps.csv).
+    pub strongly_clamped_tets: usize,
     /// Why the frame did not converge, in words.
     pub failure: Option<String>,
     /// Active contact pairs at the end of the frame (0 without contact).
@@ -142,6 +148,7 @@ impl StepStats {
         self.cg_breakdowns += info.cg_breakdowns;
         self.cg_capped += info.cg_capped;
         self.clamped_tets = self.clamped_tets.max(info.clamped_tets);
+        self.strongly_clamped_tets = self.strongly_clamped_tets.max(info.strongly_clamped_tets);
         self.elastic_energy = info.elastic_energy;
         self.timings.add(&info.timings);
         if self.failure.is_none() {

@@ -180,6 +180,10 @@ pub fn read_mesh_with(path: &Path, options: ReadOptions) -> Result<MeshRead> {
 /// Only the format reader: the mesh as in the file, with nothing dropped, reoriented or checked
 /// beyond what parsing needs. Returns the reader's output and the format's name.
 pub fn parse_mesh(path: &Path) -> Result<(Parsed, String)> {
+    // TetGen's other file (.ele beside a .node) is checked when it is read.
+    if path.exists() {
+        regular_file(path)?;
+    }
     match Format::from_path(path)? {
         Format::Gmsh => gmsh::read(path),
         Format::TetGen => tetgen::read(path).map(|p| (p, "TetGen".to_string())),
@@ -283,9 +287,52 @@ pub fn atomic_write(
     })
 }
 
-/// Read a whole file, naming it in the error.
-pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| Error::io(path, e))
+/// Read a whole file, naming it in the error. Only a regular file is read, and no further than
+/// the size it had when opened: a directory, a FIFO (which would block), or a device such as
+/// /dev/zero or /dev/urandom (which would be read until memory runs out) is refused in words.
+pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    use std::io::Read;
+    // Asked before opening: opening a FIFO blocks until a writer comes.
+    regular_file(path)?;
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let meta = file.metadata().map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        return Err(not_regular(path));
+    }
+    let len = meta.len();
+    let mut out = Vec::with_capacity(usize::try_from(len).unwrap_or(0));
+    file.take(len)
+        .read_to_end(&mut out)
+        .map_err(|e| Error::io(path, e))?;
+    Ok(out)
+}
+
+/// Ok when `path` names a regular file (symbolic links followed); a directory, FIFO, device or
+/// socket is refused in words, without opening it.
+pub fn regular_file(path: &Path) -> Result<()> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_dir() {
+        Err(Error::parse(path, None, "is a directory, not a file"))
+    } else if !meta.is_file() {
+        Err(not_regular(path))
+    } else {
+        Ok(())
+    }
+}
+
+fn not_regular(path: &Path) -> Error {
+    Error::parse(
+        path,
+        None,
+        "is not a regular file (a FIFO, device or socket): tetsim reads only regular files, \
+         whose size is known before reading",
+    )
+}
+
+/// [`read_bytes`] as UTF-8 text.
+pub fn read_text(path: &Path) -> Result<String> {
+    String::from_utf8(read_bytes(path)?)
+        .map_err(|e| Error::parse(path, None, format!("is not UTF-8 text: {e}")))
 }
 
 /// File ids → 0-based indices, dense when the ids are (as they almost always are).
@@ -488,7 +535,7 @@ pub fn read_positions(path: &Path, count: usize) -> Result<Vec<crate::math::Vec3
 }
 
 fn read_position_text(path: &Path) -> Result<Vec<crate::math::Vec3>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path)?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();

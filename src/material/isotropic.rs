@@ -219,6 +219,7 @@ impl<M: Isotropic> Invertible<M> {
             clamped: 0,
             indefinite: 0,
             inverted: s[2] <= 0.0,
+            strongly_clamped: false,
         };
         tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
@@ -272,16 +273,20 @@ impl Tangent {
     #[inline]
     fn fix(&mut self, block: impl Fn(&Mat3) -> (Mat3, bool), pair: impl Fn(f64) -> f64) {
         let (diag, changed) = block(&self.diag);
+        let strong = super::STRONG_CLAMP * self.diag.amax();
+        let mut strongly = changed && (diag - self.diag).amax() > strong;
         self.diag = diag;
         let mut count = changed as u8;
         for k in 0..3 {
             for value in [&mut self.pair_sym[k], &mut self.pair_skew[k]] {
                 if *value < 0.0 {
+                    strongly |= *value < -strong;
                     *value = pair(*value);
                     count += 1;
                 }
             }
         }
+        self.strongly_clamped = strongly;
         self.clamped = count;
         self.indefinite = count;
     }

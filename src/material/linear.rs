@@ -82,6 +82,7 @@ impl Material for LinearElastic {
             clamped: 0,
             indefinite: 0,
             inverted: false,
+            strongly_clamped: false,
         };
         // Corotated's block, and the same closed form: (2μ + 3λ, 1/√3 (1,1,1)) and 2μ twice.
         tangent.make_definite(definiteness, || {

@@ -173,7 +173,16 @@ pub struct Tangent {
     pub(crate) indefinite: u8,
     /// Whether F was inverted or flat (σ₃ ≤ 0) here; false for models without an SVD.
     pub(crate) inverted: bool,
+    /// Whether the fix changed a piece by more than [`STRONG_CLAMP`] of the tangent's scale
+    /// (not a rounding-level negative eigenvalue, as a body in rigid motion has).
+    pub(crate) strongly_clamped: bool,
 }
+
+/// A clamp counts as strong (see [`Tangent::strongly_clamped`]) beyond this share of the
+/// tangent's largest diagonal entry (≈ λ + 2μ): a pair eigenvalue at rest is exactly 0 for
+/// Neo-Hookean and comes out ±1e-12 of that by rounding under any rigid motion, while 1 % is
+/// about what 1 % of compressive strain gives.
+pub const STRONG_CLAMP: f64 = 0.01;
 
 /// The diagonal-space pieces of a [`Tangent`] (its 3×3 block and six pair eigenvalues): what a
 /// definiteness strategy changes, kept aside by the `adaptive` strategy.
@@ -230,6 +239,12 @@ impl Tangent {
     /// Always 0 for `Exact`.
     pub fn clamped_pieces(&self) -> u8 {
         self.clamped
+    }
+
+    /// Whether the definiteness fix changed a piece by more than [`STRONG_CLAMP`] of the
+    /// tangent's scale: a clamp that changes Newton's model, not one of rounding.
+    pub fn strongly_clamped(&self) -> bool {
+        self.strongly_clamped
     }
 
     /// How many diagonal-space pieces (0 to 7) were indefinite at this F before any fix, whatever
@@ -443,7 +458,8 @@ impl<'de> serde::Deserialize<'de> for Definiteness {
         Definiteness::from_name(&name).ok_or_else(|| {
             let names: Vec<&str> = Definiteness::ALL.iter().map(|d| d.name()).collect();
             serde::de::Error::custom(format!(
-                "unknown definiteness strategy \"{name}\", expected one of {}",
+                "unknown definiteness strategy \"{}\", expected one of {}",
+                crate::error::clip(&name),
                 names.join(", ")
             ))
         })
@@ -457,7 +473,8 @@ impl<'de> serde::Deserialize<'de> for ModelKind {
         ModelKind::from_name(&name).ok_or_else(|| {
             let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
             serde::de::Error::custom(format!(
-                "unknown material model \"{name}\", expected one of {}",
+                "unknown material model \"{}\", expected one of {}",
+                crate::error::clip(&name),
                 names.join(", ")
             ))
         })

@@ -131,7 +131,7 @@ impl StepsTable {
 /// Read `csv_path` (the SPEC §10 `steps.csv`) and write `steps_newton.png`, `steps_cg.png`,
 /// `steps_residual.png` and `steps_energy.png` into `out_dir`. Returns the paths written.
 pub fn plot_steps(csv_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>> {
-    let text = std::fs::read_to_string(csv_path).map_err(|e| Error::io(csv_path, e))?;
+    let text = crate::io::read_text(csv_path)?;
     let table = StepsTable::parse(csv_path, &text)?;
     register_font();
     let mut written = Vec::new();
@@ -311,7 +311,7 @@ fn newton_plot(t: &StepsTable, area: &Area) -> DrawResult {
         area,
         &t.newton_iterations,
         "Newton iterations per frame",
-        "Newton iterations",
+        "Newton iterations [count]",
     )
 }
 
@@ -321,7 +321,7 @@ fn cg_plot(t: &StepsTable, area: &Area) -> DrawResult {
         area,
         &t.cg_iterations,
         "CG iterations per frame",
-        "CG iterations",
+        "CG iterations [count]",
     )
 }
 
@@ -343,7 +343,7 @@ fn residual_plot(t: &StepsTable, area: &Area) -> DrawResult {
         (1e-12, 1.0)
     };
     let mut chart = ChartBuilder::on(area)
-        .caption("final Newton residual per frame", title_font(24.0))
+        .caption("final Newton residual ‖rhs‖ per frame", title_font(24.0))
         .margin(16)
         .x_label_area_size(44)
         .y_label_area_size(80)
@@ -354,7 +354,7 @@ fn residual_plot(t: &StepsTable, area: &Area) -> DrawResult {
         .bold_line_style(RGBColor(214, 217, 222))
         .max_light_lines(4)
         .x_desc("frame")
-        .y_desc("residual (log scale)")
+        .y_desc("residual [N] (log scale)")
         .x_label_formatter(&|v| format_tick(*v))
         .y_label_formatter(&|v| format!("{v:.0e}"))
         .label_style(title_font(15.0))
@@ -362,7 +362,7 @@ fn residual_plot(t: &StepsTable, area: &Area) -> DrawResult {
         .draw()?;
     chart
         .draw_series(LineSeries::new(points.clone(), GREY.stroke_width(2)))?
-        .label("residual")
+        .label("residual [N]")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 18, y)], GREY.stroke_width(2)));
     let kept = StepsTable {
         converged: t

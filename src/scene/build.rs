@@ -76,6 +76,9 @@ impl Scene {
                 for (severity, problem) in read.diagnosis.problems() {
                     log::warn!("{}: {severity:?}: {problem}", path.display());
                 }
+                if let Some(why) = crate::resources::memory_shortfall(read.mesh.tets.len() as f64) {
+                    return Err(self.error_at(&key!["mesh", "file"], why));
+                }
                 Ok(read.mesh)
             }
             (None, Some(Generator::Box { min, max, cells })) => {
@@ -280,6 +283,12 @@ impl Scene {
             Error::Io { path, source } => {
                 self.error_at(key, format!("{}: {source}", path.display()))
             }
+            // A problem with the whole file (no line of its own): located at the scene key.
+            Error::Parse {
+                path,
+                line: None,
+                message,
+            } => self.error_at(key, format!("{}: {message}", path.display())),
             other => other,
         }
     }
@@ -487,7 +496,8 @@ fn select_tets(spec: &RegionSpec, mesh: &TetMesh) -> std::result::Result<Vec<usi
             Some(g) if !g.tets.is_empty() => g.tets.clone(),
             Some(g) => {
                 return Err(format!(
-                    "group \"{name}\" holds no tets (a dimension-{} group); a material needs a volume group",
+                    "group \"{}\" holds no tets (a dimension-{} group); a material needs a volume group",
+                    crate::error::clip(name),
                     g.dim
                 ));
             }

@@ -51,7 +51,7 @@ impl Default for Scene {
 impl Scene {
     /// Read and validate a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::io::read_text(path)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::parse(&text, path, &base)
     }
@@ -65,7 +65,9 @@ impl Scene {
             let (line, column) = offset.map_or((1, 1), |o| line_column(text, o));
             let at = Locator::new(text);
             let key = offset.map(|o| at.path_at(o)).unwrap_or_default();
-            let message = e.message().trim();
+            // serde quotes the offending value whole (`unknown variant `…``): clip long words.
+            let message = crate::error::clip_words(e.message().trim());
+            let message = message.as_str();
             Error::Scene {
                 path: path.to_path_buf(),
                 line,

@@ -18,6 +18,7 @@ use crate::mesh::ordering::VertexOrder;
 pub struct Scene {
     /// Gravitational acceleration, m/s². Default [0, −9.81, 0].
     #[serde(default = "default_gravity")]
+    #[serde(deserialize_with = "three")]
     pub gravity: [f64; 3],
     /// `[mesh]`.
     #[serde(default)]
@@ -63,6 +64,27 @@ pub struct Scene {
     /// The scene's text, to point messages at lines; not a TOML key.
     #[serde(skip)]
     pub(crate) source: String,
+}
+
+/// Exactly three entries: serde's arrays read the first three and ignore the rest, so
+/// `gravity = [0, -9.81, 0, 500]` would silently lose its fourth.
+fn three<'de, D, T>(d: D) -> Result<[T; 3], D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let v: Vec<T> = Vec::deserialize(d)?;
+    let n = v.len();
+    <[T; 3]>::try_from(v)
+        .map_err(|_| serde::de::Error::invalid_length(n, &"exactly 3 entries [x, y, z]"))
+}
+
+/// [`three`] for an optional key.
+fn option_three<'de, D>(d: D) -> Result<Option<[f64; 3]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    three(d).map(Some)
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -135,10 +157,13 @@ pub enum Generator {
     /// A box of `cells` cubes, each split into 6 Kuhn tets; face groups xmin … zmax.
     Box {
         /// Lower corner, m.
+        #[serde(deserialize_with = "three")]
         min: [f64; 3],
         /// Upper corner, m.
+        #[serde(deserialize_with = "three")]
         max: [f64; 3],
         /// Cubes along x, y, z.
+        #[serde(deserialize_with = "three")]
         cells: [usize; 3],
     },
 }
@@ -209,15 +234,19 @@ pub enum RegionSpec {
     /// Axis-aligned box, inclusive.
     Box {
         /// Lower corner, m.
+        #[serde(deserialize_with = "three")]
         min: [f64; 3],
         /// Upper corner, m.
+        #[serde(deserialize_with = "three")]
         max: [f64; 3],
     },
     /// On the plane or on the side its normal points to.
     Plane {
         /// A point on the plane, m.
+        #[serde(deserialize_with = "three")]
         point: [f64; 3],
         /// Normal.
+        #[serde(deserialize_with = "three")]
         normal: [f64; 3],
     },
     /// 0-based vertex indices.
@@ -231,12 +260,15 @@ pub enum RegionSpec {
 #[serde(deny_unknown_fields, default)]
 pub struct MotionSpec {
     /// Translation, m. Default 0.
+    #[serde(deserialize_with = "three")]
     pub translate: [f64; 3],
     /// Rotation angle, degrees. Default 0.
     pub rotate_degrees: f64,
     /// Rotation axis. Default [1, 0, 0].
+    #[serde(deserialize_with = "three")]
     pub axis: [f64; 3],
     /// A point on the axis, m. Default the origin.
+    #[serde(deserialize_with = "three")]
     pub center: [f64; 3],
 }
 
@@ -281,8 +313,10 @@ pub struct ObstacleEntry {
 #[serde(deny_unknown_fields)]
 pub struct PlaneSpec {
     /// A point on the plane, m.
+    #[serde(deserialize_with = "three")]
     pub point: [f64; 3],
     /// The normal (any non-zero length), towards the side bodies live on.
+    #[serde(deserialize_with = "three")]
     pub normal: [f64; 3],
 }
 
@@ -291,8 +325,10 @@ pub struct PlaneSpec {
 #[serde(deny_unknown_fields)]
 pub struct BoxSpec {
     /// Lower corner, m.
+    #[serde(deserialize_with = "three")]
     pub min: [f64; 3],
     /// Upper corner, m.
+    #[serde(deserialize_with = "three")]
     pub max: [f64; 3],
 }
 
@@ -301,6 +337,7 @@ pub struct BoxSpec {
 #[serde(deny_unknown_fields)]
 pub struct SphereSpec {
     /// Center, m.
+    #[serde(deserialize_with = "three")]
     pub center: [f64; 3],
     /// Radius, m (> 0).
     pub radius: f64,
@@ -372,10 +409,13 @@ pub struct LoadSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body: Option<String>,
     /// Force per unit rest area on the region's boundary faces, Pa.
+    #[serde(default, deserialize_with = "option_three")]
     pub traction: Option<[f64; 3]>,
     /// Total force spread over the region's boundary faces by area (or its vertices), N.
+    #[serde(default, deserialize_with = "option_three")]
     pub total_force: Option<[f64; 3]>,
     /// Force on each selected vertex, N.
+    #[serde(default, deserialize_with = "option_three")]
     pub point_force: Option<[f64; 3]>,
     /// Ramp duration, s (backward Euler). Default: the whole run; 0: at once.
     pub duration: Option<f64>,
@@ -389,6 +429,7 @@ pub struct InitialSpec {
     /// the mesh); relative to the scene. Default: the rest positions.
     pub positions: Option<PathBuf>,
     /// Initial velocity of every free vertex, m/s. Default 0.
+    #[serde(deserialize_with = "three")]
     pub velocity: [f64; 3],
 }
 

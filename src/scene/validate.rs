@@ -19,8 +19,45 @@ use crate::error::{Error, Result};
 /// How many `[[volume]]` entries a mesh can hold (materials are stored per tet in a byte).
 const MAX_VOLUMES: usize = u8::MAX as usize;
 
+/// Largest λ/μ accepted (ν ≈ 0.499999995): beyond it ε·λ/μ exceeds 2e-8, and Newton on the
+/// default beam already fails to converge at λ/μ = 5e6 (ν = 0.4999999). See `validate` for why.
+pub(crate) const MAX_LAME_RATIO: f64 = 1e8;
+
+/// Caps on counts: each far above any useful value, and low enough that nothing sized by them
+/// (a per-step history, a frame loop of substeps × 2^max_step_cuts) overflows or allocates
+/// absurdly. A user who reaches one is better served by a different setting (see the messages
+/// in docs/scene-reference.md).
+pub(crate) const MAX_FRAMES: usize = 1_000_000;
+/// See [`MAX_FRAMES`].
+pub(crate) const MAX_SUBSTEPS: usize = 100_000;
+/// See [`MAX_FRAMES`].
+pub(crate) const MAX_NEWTON_ITERATIONS: usize = 10_000;
+/// See [`MAX_FRAMES`].
+pub(crate) const MAX_CG_ITERATIONS: usize = 10_000_000;
+/// The shortest time step, s.
+const MIN_DT: f64 = 1e-12;
+
 /// `max_step_cuts` beyond this would ask for more than 2²⁰ substeps per frame.
 const MAX_STEP_CUTS: usize = 20;
+
+/// The largest magnitude a value of this unit may have: far beyond any physical scene, and low
+/// enough that products of a few such values (ρ·v²·V, E·ℓ², m·x/h²) stay far from f64's 1.8e308,
+/// so that a typo like `1e308` is refused at its key instead of running to inf or NaN.
+fn limit(unit: &str) -> f64 {
+    match unit {
+        "m" => 1e9,
+        "m/s" => 1e8,
+        "m/s²" => 1e9,
+        "Pa" => 1e15,
+        "N" => 1e20,
+        "kg/m³" => 1e8,
+        "s" | "s, or a load factor" => 1e12,
+        "1/s" => 1e9,
+        "degrees" => 1e9,
+        "a Coulomb coefficient" => 1e3,
+        _ => 1e15,
+    }
+}
 
 /// Check every value of `scene` (parsed from `scene.source`); the first bad one in the file is
 /// the error.
@@ -104,8 +141,27 @@ impl Validator<'_> {
         }
     }
 
+    /// |value| ≤ the unit's [`limit`] (NaN and inf are reported by the callers' own checks).
+    fn bounded(&mut self, key: &[Seg], value: f64, unit: &str) -> bool {
+        let max = limit(unit);
+        if value.is_finite() && value.abs() > max {
+            self.fail(
+                key,
+                format!(
+                    "{value:e} is beyond any physical value: at most {max:.0e} ({unit}) is \
+                     accepted, as larger values overflow double precision during the run"
+                ),
+            );
+            return false;
+        }
+        true
+    }
+
     /// `value` > 0 and finite.
     fn positive(&mut self, key: &[Seg], value: f64, unit: &str) {
+        if !self.bounded(key, value, unit) {
+            return;
+        }
         if !(value > 0.0 && value.is_finite()) {
             let unit = if unit.is_empty() {
                 String::new()
@@ -121,11 +177,20 @@ impl Validator<'_> {
 
     /// `value` ≥ 0 and finite.
     fn non_negative(&mut self, key: &[Seg], value: f64, unit: &str) {
+        if !self.bounded(key, value, unit) {
+            return;
+        }
         if !(value >= 0.0 && value.is_finite()) {
             self.fail(
                 key,
                 format!("must be zero or positive and finite ({unit}), got {value}"),
             );
+        }
+    }
+
+    fn at_most(&mut self, key: &[Seg], value: usize, max: usize) {
+        if value > max {
+            self.fail(key, format!("must be at most {max}, got {value}"));
         }
     }
 
@@ -138,6 +203,8 @@ impl Validator<'_> {
     fn finite3(&mut self, key: &[Seg], value: [f64; 3], unit: &str) {
         if !value.iter().all(|c| c.is_finite()) {
             self.fail(key, format!("must be finite ({unit}), got {}", vec3(value)));
+        } else if let Some(&c) = value.iter().find(|c| c.abs() > limit(unit)) {
+            self.bounded(key, c, unit);
         }
     }
 
@@ -168,6 +235,15 @@ impl Validator<'_> {
                         &join(&base, &key!["cells"]),
                         format!("need at least one cell per axis, got {cells:?}"),
                     );
+                } else {
+                    // 6 Kuhn tets a cube; counted in f64 so that no product overflows.
+                    let tets = 6.0 * cells.iter().map(|&c| c as f64).product::<f64>();
+                    if let Some(why) = crate::resources::memory_shortfall(tets) {
+                        self.fail(
+                            &join(&base, &key!["cells"]),
+                            format!("{cells:?} cells: {why}; use fewer cells"),
+                        );
+                    }
                 }
             }
             (Some(_), None) => {}
@@ -208,6 +284,11 @@ impl Validator<'_> {
                 }
             }
         }
+        for (k, value) in [("youngs_modulus", e), ("mu", mu), ("lambda", lambda)] {
+            if let Some(value) = value {
+                self.bounded(&at(k), value, "Pa");
+            }
+        }
         if let Some(e) = e
             && !(e > 0.0 && e.is_finite())
         {
@@ -223,6 +304,32 @@ impl Validator<'_> {
                 &at("poisson_ratio"),
                 format!(
                     "Poisson ratio must lie in (-1, 0.5), got {nu} (0.5 is incompressible: λ would be infinite)"
+                ),
+            );
+        }
+        // λ/μ beyond what double precision resolves: the volumetric stress's rounding
+        // (ε·λ/μ of the shear response) swamps the shear response Newton must balance.
+        let ratio = match (nu, mu, lambda) {
+            (Some(nu), _, _) if nu > -1.0 && nu < 0.5 => {
+                Some(("poisson_ratio", 2.0 * nu / (1.0 - 2.0 * nu)))
+            }
+            (None, Some(mu), Some(lambda)) if mu > 0.0 && lambda.is_finite() => {
+                Some(("lambda", lambda / mu))
+            }
+            _ => None,
+        };
+        if let Some((k, ratio)) = ratio
+            && ratio > MAX_LAME_RATIO
+        {
+            self.fail(
+                &at(k),
+                format!(
+                    "nearly incompressible beyond what double precision can solve: λ/μ = {ratio:.1e} \
+                     exceeds {MAX_LAME_RATIO:.0e} (ν ≈ 0.499999995), so rounding of the volumetric \
+                     stress (ε·λ/μ = {:.0e} of the shear stress) swamps the shear response and \
+                     Newton cannot converge; linear tets also lock there. Use poisson_ratio = 0.49 \
+                     or less (rubber is well modelled by 0.45-0.49)",
+                    f64::EPSILON * ratio
                 ),
             );
         }
@@ -385,7 +492,18 @@ impl Validator<'_> {
                 format!("must be finite (degrees), got {}", m.rotate_degrees),
             );
         }
+        self.bounded(&at("rotate_degrees"), m.rotate_degrees, "degrees");
         self.finite3(&at("axis"), m.axis, "a direction");
+        if m.rotate_degrees != 0.0 && m.axis.iter().all(|&c| c == 0.0) {
+            self.fail(
+                &at("axis"),
+                format!(
+                    "a rotation of {} degrees needs a non-zero axis, got {}",
+                    m.rotate_degrees,
+                    vec3(m.axis)
+                ),
+            );
+        }
         self.finite3(&at("center"), m.center, "m");
     }
 
@@ -507,8 +625,40 @@ impl Validator<'_> {
     fn solver(&mut self, s: &SolverSpec) {
         let at = |k: &'static str| key!["solver", k];
         self.positive(&at("dt"), s.dt, "s");
+        if s.dt > 0.0 && s.dt < MIN_DT {
+            self.fail(
+                &at("dt"),
+                format!(
+                    "must be at least {MIN_DT:e} s (1/dt² would overflow the inertia term), got {}",
+                    s.dt
+                ),
+            );
+        }
         self.at_least_one(&at("frames"), s.frames);
         self.at_least_one(&at("substeps"), s.substeps);
+        for (k, value, max) in [
+            ("frames", s.frames, MAX_FRAMES),
+            ("substeps", s.substeps, MAX_SUBSTEPS),
+            (
+                "newton_max_iterations",
+                s.newton_max_iterations,
+                MAX_NEWTON_ITERATIONS,
+            ),
+            ("cg_max_iterations", s.cg_max_iterations, MAX_CG_ITERATIONS),
+        ] {
+            self.at_most(&at(k), value, max);
+        }
+        for (k, value) in [
+            ("newton_tolerance", s.newton_tolerance),
+            ("cg_tolerance", s.cg_tolerance),
+        ] {
+            if value >= 1.0 {
+                self.fail(
+                    &at(k),
+                    format!("must be below 1 (it is relative to the first residual: 1 or more would accept any start as converged), got {value}"),
+                );
+            }
+        }
         self.non_negative(&at("rayleigh_stiffness"), s.rayleigh_stiffness, "s");
         self.non_negative(&at("rayleigh_mass"), s.rayleigh_mass, "1/s");
         self.positive(&at("newton_tolerance"), s.newton_tolerance, "");
