@@ -50,6 +50,7 @@
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`manifest`]: `manifest.json`: version, input hashes, resolved parameters, output hashes.
+//! - [`checkpoint`]: `checkpoint.bin`: what a stopped run needs to go on with the same bytes.
 //! - [`check`]: the derivative self-check (`tetsim check`).
 //! - [`diagnose`]: what went wrong, in words: inverted elements, run summary, warnings.
 //! - [`field`]: the fields pictures are coloured by (displacement, J, von Mises, Ψ).
