@@ -321,8 +321,7 @@ impl Recorder {
             files.push((obj, crate::manifest::sha256_file(&path)?));
             self.note(path);
         }
-        // Bodies in contact without obstacles have no obstacle files.
-        if let Some(setup) = sim.contact_setup().filter(|s| !s.obstacles.is_empty()) {
+        if let Some(setup) = sim.contact_setup() {
             self.write_obstacles(sim, setup, &mut files)?;
         }
         self.frames.push(FrameFiles {
