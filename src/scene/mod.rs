@@ -65,15 +65,16 @@ impl Scene {
             let at = Locator::new(text);
             let key = offset.map(|o| at.path_at(o)).unwrap_or_default();
             let message = e.message().trim();
+            let key = (!key.is_empty()).then(|| Dotted(&key).to_string());
             Error::Scene {
                 path: path.to_path_buf(),
                 line,
                 column,
-                message: if key.is_empty() {
-                    message.to_string()
-                } else {
-                    format!("{}: {message}", Dotted(&key))
+                message: match &key {
+                    Some(key) => format!("{key}: {message}"),
+                    None => message.to_string(),
                 },
+                key,
             }
         })?;
         scene.path = path.to_path_buf();
@@ -123,6 +124,7 @@ mod tests {
         let msg = err.to_string();
         assert!(msg.starts_with("s.toml:6:1: solver.frobnicate: "), "{msg}");
         assert!(msg.contains("unknown field `frobnicate`"), "{msg}");
+        assert_eq!(err.key(), Some("solver.frobnicate"));
     }
 
     #[test]
