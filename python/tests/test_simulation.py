@@ -134,3 +134,35 @@ def test_run_continues_from_the_current_frame(tmp_path):
     assert not any(n.endswith(".png") or n.endswith(".gif") for n in names)
     assert sim.run(tmp_path / "again") == []
     assert math.isfinite(sim.time)
+
+
+def test_the_example_script_runs(tmp_path):
+    import runpy
+    import sys
+
+    from conftest import ROOT
+
+    script = ROOT / "python" / "examples" / "plot_cantilever.py"
+    argv = sys.argv
+    sys.argv = [str(script), "--frames", "3", "--out", str(tmp_path)]
+    try:
+        runpy.run_path(str(script), run_name="__main__")
+    finally:
+        sys.argv = argv
+    assert (tmp_path / "E2e+06" / "manifest.json").exists()
+
+
+def test_the_readme_example_runs(tmp_path, monkeypatch):
+    import re
+
+    from conftest import ROOT
+
+    readme = (ROOT / "README.md").read_text()
+    code = re.search(r"```python\n(import tetsim.*?)```", readme, re.S).group(1)
+    assert code.count("\n") <= 14
+    monkeypatch.chdir(ROOT)  # the example's paths are relative to the repository
+    code = code.replace('"out/py"', repr(str(tmp_path / "py")))  # never write into the repository
+    namespace = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    assert namespace["dPdF"].shape == (5, 9, 9) and namespace["sim"].is_finished
+    assert (tmp_path / "py" / "manifest.json").exists()
