@@ -236,7 +236,8 @@ def write_mesh(
     """Write a tet mesh in the format of path's extension: .msh (Gmsh 4.1 ASCII), .vtu, .vtk,
     .node/.ele (TetGen), .mesh (MEDIT), .obj (the boundary surface). vertices (n, 3) float64;
     tets (m, 4) int64 indices into vertices; groups: name -> vertex ids (int64), written as
-    Gmsh physical groups of points. Written atomically (a temp file renamed)."""
+    Gmsh physical groups of points in a .msh (the other formats have no groups). Written
+    atomically (a temp file renamed)."""
 
 class Material:
     """A constitutive model: energy density Ψ(F) (J/m³), first Piola-Kirchhoff stress

@@ -80,8 +80,8 @@ pub fn read_mesh(py: Python<'_>, path: PathBuf, force: bool) -> PyResult<Mesh> {
 /// Write a tet mesh in the format of path's extension: .msh (Gmsh 4.1 ASCII), .vtu, .vtk,
 /// .node/.ele (TetGen), .mesh (MEDIT), .obj (the boundary surface). vertices: (n, 3) float64;
 /// tets: (m, 4) int64 indices into vertices; groups: optional dict name → vertex ids (int64),
-/// written as Gmsh physical groups of points (read_mesh reads them back). The file is written
-/// atomically (a temp file renamed).
+/// written as Gmsh physical groups of points in a .msh (read_mesh reads them back; the other
+/// formats have no groups). The file is written atomically (a temp file renamed).
 #[pyfunction]
 #[pyo3(signature = (path, vertices, tets, groups=None))]
 pub fn write_mesh(

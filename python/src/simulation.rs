@@ -37,9 +37,11 @@ type Triple = [f64; 3];
 impl Simulation {
     /// Build everything the scene describes (reads its mesh), ready to step from frame 0.
     #[new]
-    fn new(scene: &Scene) -> PyResult<Self> {
-        let sim =
-            tetsim::Simulation::from_scene(&scene.inner).map_err(|e| from_lib(e, scene.origin))?;
+    fn new(py: Python<'_>, scene: &Scene) -> PyResult<Self> {
+        let inner = &scene.inner;
+        let sim = py
+            .detach(|| tetsim::Simulation::from_scene(inner))
+            .map_err(|e| from_lib(e, scene.origin))?;
         Ok(Simulation {
             sim: Mutex::new(sim),
             scene: scene.inner.clone(),
