@@ -155,6 +155,10 @@ pub struct Constraint {
     /// Release: after this time (s; quasistatic: load factor) the vertices are free again, with
     /// the velocity they had. None: held for the whole run.
     pub until: Option<f64>,
+    /// Explicit target positions (m) of `vertices`, one per vertex in the same order, set by a
+    /// caller between frames (`Simulation::set_fixed_targets`, for control loops): when Some,
+    /// they replace the motion and its ramp, and hold from the next step on.
+    pub targets: Option<Vec<Vec3>>,
 }
 
 impl Constraint {
@@ -351,8 +355,11 @@ impl Boundary {
     pub fn prescribe(&self, clock: &Clock, x0: &[Vec3], x: &mut [Vec3]) {
         for c in self.constraints.iter().filter(|c| c.active(clock)) {
             let s = clock.ramp(c.duration);
-            for &v in &c.vertices {
-                let target = c.motion.apply(s, &x0[v]);
+            for (i, &v) in c.vertices.iter().enumerate() {
+                let target = match &c.targets {
+                    Some(targets) => targets[i],
+                    None => c.motion.apply(s, &x0[v]),
+                };
                 for k in 0..3 {
                     if c.components[k] {
                         x[v][k] = target[k];

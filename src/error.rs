@@ -38,7 +38,10 @@ pub enum Error {
         line: usize,
         /// 1-based column.
         column: usize,
-        /// What is wrong, in words.
+        /// The key the error is about, as the message names it (`solver.dt`,
+        /// `[[fixed]] #2 duration`); None for a syntax error outside every key.
+        key: Option<String>,
+        /// What is wrong, in words (prefixed with the key when there is one).
         message: String,
     },
     /// A mesh that reads but cannot be simulated.
@@ -86,6 +89,16 @@ impl Error {
             path: path.into(),
             line,
             message: message.into(),
+        }
+    }
+
+    /// The scene key (or parameter) the error is about, when there is one: for callers that
+    /// want it apart from the message (the Python module's `tetsim.Error.key`).
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            Error::Scene { key, .. } => key.as_deref(),
+            Error::Parameter { name, .. } => Some(name),
+            _ => None,
         }
     }
 

@@ -561,46 +561,76 @@ pub fn clear_previous_run(dir: &Path) -> Result<usize> {
     Ok(removed)
 }
 
+/// One value of a steps.csv row, typed: what [`step_columns`] hands to callers that want the
+/// numbers rather than the text (the Python module's `Simulation.step()` dict).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Cell {
+    /// A count (frame, iterations, elements).
+    Count(usize),
+    /// A real number.
+    Real(f64),
+    /// A flag (`converged`).
+    Flag(bool),
+    /// No value (`min_distance` when nothing is near); written as an empty field.
+    Empty,
+}
+
+/// The steps.csv columns of one frame, named by the header ([`STEPS_HEADER`], then
+/// [`CONTACT_COLUMNS`] when `contact`), in order: the one list both the CSV row and the Python
+/// module's `step()` dict are made from, so they cannot disagree.
+pub fn step_columns(s: &StepStats, contact: bool) -> Vec<(&'static str, Cell)> {
+    use Cell::{Count, Flag, Real};
+    let mut values = vec![
+        Count(s.frame),
+        Real(s.time),
+        Count(s.newton_iterations),
+        Count(s.cg_iterations),
+        Real(s.residual),
+        Flag(s.converged),
+        Real(s.elastic_energy),
+        Real(s.kinetic_energy),
+        Real(s.min_j),
+        Count(s.inverted_elements),
+        Real(s.wall_seconds),
+        Real(s.relative_residual),
+        Count(s.substeps),
+        Count(s.line_search_cuts),
+        Count(s.cg_breakdowns),
+        Count(s.cg_capped),
+        Count(s.clamped_tets),
+        Real(s.energy.gravitational),
+        Real(s.energy.load_work),
+        Real(s.energy.boundary_work),
+        Real(s.energy.damping_dissipation),
+        Real(s.energy.numerical_dissipation),
+        Real(s.energy.tolerance),
+    ];
+    let mut names: Vec<&'static str> = STEPS_HEADER.split(',').collect();
+    if contact {
+        values.extend([
+            Count(s.contacts),
+            s.min_distance.map_or(Cell::Empty, Real),
+            Real(s.contact_energy),
+            Real(s.friction_dissipation),
+        ]);
+        names.extend(CONTACT_COLUMNS.split(','));
+    }
+    debug_assert_eq!(names.len(), values.len(), "a column without a name");
+    names.into_iter().zip(values).collect()
+}
+
 /// One steps.csv row (with the contact columns when `contact`).
 fn push_row(csv: &mut String, s: &StepStats, contact: bool) {
-    let _ = writeln!(
-        csv,
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-        s.frame,
-        num(s.time),
-        s.newton_iterations,
-        s.cg_iterations,
-        num(s.residual),
-        s.converged,
-        num(s.elastic_energy),
-        num(s.kinetic_energy),
-        num(s.min_j),
-        s.inverted_elements,
-        num(s.wall_seconds),
-        num(s.relative_residual),
-        s.substeps,
-        s.line_search_cuts,
-        s.cg_breakdowns,
-        s.cg_capped,
-        s.clamped_tets,
-        num(s.energy.gravitational),
-        num(s.energy.load_work),
-        num(s.energy.boundary_work),
-        num(s.energy.damping_dissipation),
-        num(s.energy.numerical_dissipation),
-        num(s.energy.tolerance),
-    );
-    if contact {
-        csv.pop();
-        let _ = writeln!(
-            csv,
-            ",{},{},{},{}",
-            s.contacts,
-            s.min_distance.map_or_else(String::new, num),
-            num(s.contact_energy),
-            num(s.friction_dissipation),
-        );
-    }
+    let cells: Vec<String> = step_columns(s, contact)
+        .into_iter()
+        .map(|(_, cell)| match cell {
+            Cell::Count(n) => n.to_string(),
+            Cell::Real(x) => num(x),
+            Cell::Flag(b) => b.to_string(),
+            Cell::Empty => String::new(),
+        })
+        .collect();
+    let _ = writeln!(csv, "{}", cells.join(","));
 }
 
 /// A number for CSV: plain for ordinary magnitudes, exponent form otherwise, always

@@ -13,6 +13,8 @@
 //! }
 //! ```
 
+mod control;
+
 use std::time::Instant;
 
 use crate::audit::{Ledger, StepRecord, audit_step};

@@ -845,6 +845,7 @@ fn hard_step_with(
             motion: Default::default(),
             duration: None,
             until: None,
+            targets: None,
         }],
         ..Default::default()
     };
@@ -1989,4 +1990,113 @@ fn resuming_from_a_checkpoint_gives_the_bits_of_a_run_never_stopped() {
         assert_eq!(bits(&resumed.state.x), bits(&whole.state.x), "{name}: x");
         assert_eq!(bits(&resumed.state.v), bits(&whole.state.v), "{name}: v");
     }
+}
+
+/// The gmsh beam (renumbered inside for locality) with `frames` frames.
+fn gmsh_beam(frames: usize) -> Simulation {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gmsh_beam.toml");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.solver.frames = frames;
+    Simulation::from_scene(&scene).unwrap()
+}
+
+#[test]
+fn input_order_is_the_mesh_file_s() {
+    // The Python module hands out positions and tets in the file's numbering, while the
+    // simulation renumbers a file mesh (RCM) for locality.
+    let sim = gmsh_beam(1);
+    assert!(
+        sim.renumbering().is_some(),
+        "the test needs a renumbered mesh"
+    );
+    let file = tetsim::io::read_mesh(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/beam.msh"),
+    )
+    .unwrap()
+    .mesh;
+    assert_eq!(sim.to_input_order(&sim.body.mesh.positions), file.positions);
+    assert_eq!(sim.input_tets(), file.tets);
+    let x = sim.to_input_order(&sim.state.x);
+    assert_eq!(sim.from_input_order(&x), sim.state.x);
+}
+
+#[test]
+fn set_positions_and_velocities_are_checked_like_the_scene_file() {
+    let mut sim = gmsh_beam(2);
+    let n = sim.body.vertex_count();
+    let mut x = sim.to_input_order(&sim.state.x);
+    x[7].y += 0.01;
+    sim.set_positions(&x).unwrap();
+    assert_eq!(sim.to_input_order(&sim.state.x), x);
+    let msg = sim.set_positions(&x[..n - 1]).unwrap_err().to_string();
+    assert!(msg.contains("positions for a mesh of"), "{msg}");
+    x[3].z = f64::NAN;
+    let err = sim.set_positions(&x).unwrap_err();
+    assert_eq!(err.key(), Some("positions"));
+    assert!(
+        err.to_string().contains("position 3 is not finite"),
+        "{err}"
+    );
+    // Velocities on clamped components are dropped: the constraint moves them.
+    let v = vec![Vec3::new(1.0, 2.0, 3.0); n];
+    sim.set_velocities(&v).unwrap();
+    let clamped = sim.fixed_vertices(0).unwrap();
+    let given = sim.to_input_order(&sim.state.v);
+    assert!(clamped.iter().all(|&c| given[c] == Vec3::zeros()));
+    assert_eq!(
+        given.iter().filter(|g| **g == v[0]).count(),
+        n - clamped.len()
+    );
+    let msg = sim
+        .set_velocities(&vec![Vec3::repeat(f64::INFINITY); n])
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("velocity 0 is not finite"), "{msg}");
+    // The next step starts from the positions set (the energy audit included).
+    let stats = sim.step().unwrap();
+    assert!(stats.converged && stats.energy.tolerance.is_finite());
+}
+
+#[test]
+fn fixed_vertices_go_where_they_are_moved_between_steps() {
+    let mut sim = gmsh_beam(3);
+    let clamp = sim.fixed_vertices(0).unwrap();
+    let rest = sim.to_input_order(&sim.body.mesh.positions);
+    // A motion reached at once (duration 0): the clamp translated.
+    let motion = tetsim::boundary::Motion {
+        translate: Vec3::new(0.0, 0.05, 0.0),
+        ..Default::default()
+    };
+    sim.set_fixed_motion(0, motion, Some(0.0)).unwrap();
+    sim.step().unwrap();
+    let x = sim.to_input_order(&sim.state.x);
+    for &v in &clamp {
+        assert_eq!(
+            x[v],
+            tetsim::boundary::Motion::apply(&motion, 1.0, &rest[v])
+        );
+    }
+    // Explicit targets, one per clamped vertex in fixed_vertices' order.
+    let targets: Vec<Vec3> = clamp
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| rest[v] + Vec3::new(0.0, 0.0, 1e-3 * i as f64))
+        .collect();
+    sim.set_fixed_targets(0, &targets).unwrap();
+    sim.step().unwrap();
+    let x = sim.to_input_order(&sim.state.x);
+    for (&v, t) in clamp.iter().zip(&targets) {
+        assert_eq!(x[v], *t);
+    }
+    // The scene file's checks, with its key names.
+    let bad = tetsim::boundary::Motion {
+        translate: Vec3::new(f64::NAN, 0.0, 0.0),
+        ..Default::default()
+    };
+    let err = sim.set_fixed_motion(0, bad, None).unwrap_err();
+    assert_eq!(err.key(), Some("[[fixed]] #1 motion.translate"));
+    let err = sim.set_fixed_motion(0, motion, Some(-1.0)).unwrap_err();
+    assert_eq!(err.key(), Some("[[fixed]] #1 duration"));
+    assert!(sim.set_fixed_targets(0, &targets[1..]).is_err());
+    assert!(sim.fixed_vertices(1).is_err());
 }

@@ -185,6 +185,7 @@ impl Scene {
                 motion,
                 duration: fixed.duration,
                 until: fixed.until,
+                targets: None,
             });
         }
         for (i, spec) in self.load.iter().enumerate() {

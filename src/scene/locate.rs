@@ -152,11 +152,13 @@ impl<'t> Locator<'t> {
     /// key's line (or the deepest part of the path the text has).
     pub(crate) fn error(&self, file: &Path, path: &[Seg], message: impl fmt::Display) -> Error {
         let (line, column) = self.line_column(path);
+        let key = Dotted(path).to_string();
         Error::Scene {
             path: file.to_path_buf(),
             line,
             column,
-            message: format!("{}: {message}", Dotted(path)),
+            message: format!("{key}: {message}"),
+            key: Some(key),
         }
     }
 }

@@ -68,15 +68,16 @@ impl Scene {
             // serde quotes the offending value whole (`unknown variant `…``): clip long words.
             let message = crate::error::clip_words(e.message().trim());
             let message = message.as_str();
+            let key = (!key.is_empty()).then(|| Dotted(&key).to_string());
             Error::Scene {
                 path: path.to_path_buf(),
                 line,
                 column,
-                message: if key.is_empty() {
-                    message.to_string()
-                } else {
-                    format!("{}: {message}", Dotted(&key))
+                message: match &key {
+                    Some(key) => format!("{key}: {message}"),
+                    None => message.to_string(),
                 },
+                key,
             }
         })?;
         scene.path = path.to_path_buf();
@@ -126,6 +127,7 @@ mod tests {
         let msg = err.to_string();
         assert!(msg.starts_with("s.toml:6:1: solver.frobnicate: "), "{msg}");
         assert!(msg.contains("unknown field `frobnicate`"), "{msg}");
+        assert_eq!(err.key(), Some("solver.frobnicate"));
     }
 
     #[test]

@@ -1,0 +1,151 @@
+//! `tetsim.read_mesh` and `tetsim.write_mesh`: tet meshes in the formats tetsim reads and writes.
+
+use std::path::PathBuf;
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use tetsim::TetMesh;
+use tetsim::mesh::Group;
+
+use crate::arrays;
+use crate::errors::{LibResult, argument};
+
+/// A tet mesh read from a file: vertices (n, 3) float64, tets (m, 4) int64, groups (dict: name
+/// → sorted vertex ids, int64), tet_groups (dict: name → tet ids, for volume groups), format.
+#[pyclass(module = "tetsim", frozen, get_all)]
+pub struct Mesh {
+    /// (n, 3) float64 vertex positions, m.
+    vertices: Py<PyAny>,
+    /// (m, 4) int64 vertex indices of each tet.
+    tets: Py<PyAny>,
+    /// Named groups (Gmsh physical groups): name → sorted vertex ids.
+    groups: Py<PyDict>,
+    /// Named volume groups: name → tet ids.
+    tet_groups: Py<PyDict>,
+    /// The format read, e.g. 'Gmsh 4.1 ASCII'.
+    format: String,
+}
+
+#[pymethods]
+impl Mesh {
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(format!(
+            "Mesh(vertices={}, tets={}, groups={}, format={:?})",
+            self.vertices.bind(py).len()?,
+            self.tets.bind(py).len()?,
+            self.groups.bind(py).keys(),
+            self.format
+        ))
+    }
+}
+
+/// A group's name as a dict key: its name, or its tag when the file gives none.
+fn group_name(g: &Group) -> String {
+    if g.name.is_empty() {
+        g.tag.to_string()
+    } else {
+        g.name.clone()
+    }
+}
+
+/// Read a tet mesh: Gmsh .msh (2.2, 4.1; ASCII or binary), TetGen .node/.ele, VTK .vtk/.vtu,
+/// MEDIT .mesh. Vertices no tet uses are dropped, tets reoriented to positive volume, and a mesh
+/// with degenerate or duplicate tets refused unless force=True (as `tetsim mesh check` reports).
+///
+/// Raises tetsim.Error naming the file and line of a malformed file.
+#[pyfunction]
+#[pyo3(signature = (path, force=false))]
+pub fn read_mesh(py: Python<'_>, path: PathBuf, force: bool) -> PyResult<Mesh> {
+    let read = py
+        .detach(|| tetsim::io::read_mesh_with(&path, tetsim::io::ReadOptions { force }))
+        .py()?;
+    let mesh = read.mesh;
+    let groups = PyDict::new(py);
+    let tet_groups = PyDict::new(py);
+    for g in &mesh.groups {
+        groups.set_item(group_name(g), arrays::from_indices(py, &g.vertices)?)?;
+        if !g.tets.is_empty() {
+            tet_groups.set_item(group_name(g), arrays::from_indices(py, &g.tets)?)?;
+        }
+    }
+    Ok(Mesh {
+        vertices: arrays::from_vec3s(py, &mesh.positions)?.unbind(),
+        tets: arrays::from_tets(py, &mesh.tets)?.unbind(),
+        groups: groups.unbind(),
+        tet_groups: tet_groups.unbind(),
+        format: read.report.format,
+    })
+}
+
+/// Write a tet mesh in the format of path's extension: .msh (Gmsh 4.1 ASCII), .vtu, .vtk,
+/// .node/.ele (TetGen), .mesh (MEDIT), .obj (the boundary surface). vertices: (n, 3) float64;
+/// tets: (m, 4) int64 indices into vertices; groups: optional dict name → vertex ids (int64),
+/// written as Gmsh physical groups of points in a .msh (read_mesh reads them back; the other
+/// formats have no groups). The file is written atomically (a temp file renamed).
+#[pyfunction]
+#[pyo3(signature = (path, vertices, tets, groups=None))]
+pub fn write_mesh(
+    py: Python<'_>,
+    path: PathBuf,
+    vertices: &Bound<'_, PyAny>,
+    tets: &Bound<'_, PyAny>,
+    groups: Option<&Bound<'_, PyDict>>,
+) -> PyResult<()> {
+    let positions = arrays::vec3s(vertices, "vertices", None)?;
+    let n = positions.len();
+    if let Some(v) = positions
+        .iter()
+        .position(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        return Err(argument("vertices", format!("vertex {v} is not finite")));
+    }
+    let index = |value: i64, what: String| -> PyResult<usize> {
+        usize::try_from(value)
+            .ok()
+            .filter(|&v| v < n)
+            .ok_or_else(|| {
+                argument(
+                    &what,
+                    format!("vertex {value} does not exist (there are {n} vertices)"),
+                )
+            })
+    };
+    let mut tet_list = Vec::new();
+    for (t, tet) in arrays::tets(tets, "tets")?.into_iter().enumerate() {
+        let mut out = [0; 4];
+        for (slot, v) in out.iter_mut().zip(tet) {
+            *slot = index(v, "tets".into()).map_err(|_| {
+                argument(
+                    "tets",
+                    format!("tet {t} refers to vertex {v}, which does not exist (there are {n} vertices)"),
+                )
+            })?;
+        }
+        tet_list.push(out);
+    }
+    if tet_list.is_empty() {
+        return Err(argument("tets", "the mesh has no tetrahedra"));
+    }
+    let mut mesh = TetMesh::new(positions, tet_list);
+    if let Some(groups) = groups {
+        for (name, ids) in groups.iter() {
+            let Ok(name) = name.extract::<String>() else {
+                return Err(argument("groups", "group names must be strings"));
+            };
+            let key = format!("groups[{name:?}]");
+            let mut vertices = Vec::new();
+            for v in arrays::indices(&ids, &key)? {
+                vertices.push(index(v, key.clone())?);
+            }
+            vertices.sort_unstable();
+            vertices.dedup();
+            mesh.groups.push(Group {
+                name,
+                dim: 0,
+                vertices,
+                ..Default::default()
+            });
+        }
+    }
+    py.detach(|| tetsim::io::write_mesh(&path, &mesh)).py()
+}

@@ -1,0 +1,318 @@
+//! `tetsim.Simulation`: step a scene frame by frame, read and set its state, move its fixed
+//! vertices, or run the rest of it into the files `tetsim run` writes.
+
+use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard};
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use tetsim::boundary::Motion;
+use tetsim::integrator::StepStats;
+use tetsim::math::Vec3;
+use tetsim::output::{Cell, Recorder, step_columns};
+
+use crate::arrays;
+use crate::errors::{LibResult, argument, from_lib};
+use crate::scene::Scene;
+
+/// A running simulation of a scene: its body, boundary conditions, state and solver.
+///
+/// Vertex arrays (positions, velocities, rest_positions, tets, fixed vertices) use the mesh
+/// file's numbering, the same as the output frames. Between steps you may set positions and
+/// velocities and move the fixed vertices (set_fixed_motion, set_fixed_targets); each value is
+/// checked like the same value in a scene file. The GIL is released while stepping.
+#[pyclass(module = "tetsim")]
+pub struct Simulation {
+    /// Behind a mutex only because Python objects must be shareable between threads (and the
+    /// solver's boxed strategies are not `Sync`); `&mut self` methods reach it without locking.
+    sim: Mutex<tetsim::Simulation>,
+    scene: tetsim::Scene,
+    origin: crate::errors::Origin,
+}
+
+/// A 3-vector argument (any sequence of three floats).
+type Triple = [f64; 3];
+
+#[pymethods]
+impl Simulation {
+    /// Build everything the scene describes (reads its mesh), ready to step from frame 0.
+    #[new]
+    fn new(py: Python<'_>, scene: &Scene) -> PyResult<Self> {
+        let inner = &scene.inner;
+        let sim = py
+            .detach(|| tetsim::Simulation::from_scene(inner))
+            .map_err(|e| from_lib(e, scene.origin))?;
+        Ok(Simulation {
+            sim: Mutex::new(sim),
+            scene: scene.inner.clone(),
+            origin: scene.origin,
+        })
+    }
+
+    /// Advance one frame (all its substeps) and return its row of steps.csv as a dict: frame,
+    /// time, newton_iterations, cg_iterations, residual, converged, elastic_energy,
+    /// kinetic_energy, min_J, inverted_elements, wall_seconds, … (tetsim.STEPS_COLUMNS, then
+    /// tetsim.CONTACT_COLUMNS when contact is on; min_distance is None when nothing is near).
+    ///
+    /// Raises tetsim.Error when the run is finished, or when the frame fails under the scene's
+    /// [solver] on_failure (the state is then left as it was before the step).
+    fn step<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let origin = self.origin;
+        let sim = self.sim_mut();
+        check_not_finished(sim)?;
+        let stats = py.detach(|| sim.step()).map_err(|e| from_lib(e, origin))?;
+        columns(py, &stats, sim.contact_setup().is_some())
+    }
+
+    /// Run every remaining frame, writing what `tetsim run --no-pictures` writes into out_dir
+    /// (default: the scene's [output] dir): frame_NNNN.vtu (the current frame first), frames.pvd,
+    /// surface_NNNN.obj, steps.csv, timings.csv and manifest.json, with the same bytes.
+    /// deterministic=True writes steps.csv's wall_seconds as 0 (like --deterministic; default:
+    /// the scene's [output] deterministic). Pictures are left out: plot with matplotlib, or
+    /// draw them with `tetsim render OUT_DIR`.
+    ///
+    /// Returns the steps dicts of the frames run. Ctrl-C stops between frames (raising
+    /// KeyboardInterrupt) with every file written so far valid and the manifest saying so.
+    #[pyo3(signature = (out_dir=None, deterministic=None))]
+    fn run<'py>(
+        &mut self,
+        py: Python<'py>,
+        out_dir: Option<PathBuf>,
+        deterministic: Option<bool>,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let mut scene = self.scene.clone();
+        scene.output.deterministic = deterministic.unwrap_or(scene.output.deterministic);
+        // What this run writes, as the manifest records it: no pictures, no plots.
+        scene.output.pictures = false;
+        scene.output.plots = false;
+        let out = out_dir.unwrap_or_else(|| scene.output.dir.clone());
+        let origin = self.origin;
+        let sim = self.sim_mut();
+        let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)
+            .py()?
+            .deterministic(scene.output.deterministic);
+        recorder.write_frame(&*sim, None).py()?;
+        let mut rows = Vec::new();
+        let mut failure = None;
+        let mut interrupted = None;
+        while !sim.is_finished() {
+            let (sim, recorder) = (&mut *sim, &mut recorder);
+            let done = py.detach(|| -> tetsim::Result<StepStats> {
+                let stats = sim.step()?;
+                recorder.write_frame(sim, Some(&stats))?;
+                Ok(stats)
+            });
+            match done {
+                Ok(stats) => rows.push(columns(py, &stats, sim.contact_setup().is_some())?),
+                Err(error @ tetsim::Error::Solve { .. }) => {
+                    failure = Some(error);
+                    break;
+                }
+                Err(error) => return Err(error).py(),
+            }
+            if let Err(e) = py.check_signals() {
+                interrupted = Some(e);
+                break;
+            }
+        }
+        let status = match (&failure, &interrupted) {
+            (Some(e), _) => format!("stopped: {e}"),
+            (None, Some(_)) => format!("stopped: interrupted after frame {}", sim.frame()),
+            (None, None) => "complete".to_string(),
+        };
+        recorder.write_manifest(&scene, &*sim, &status).py()?;
+        if let Some(e) = interrupted {
+            return Err(e);
+        }
+        if let Some(e) = failure {
+            return Err(from_lib(e, origin));
+        }
+        Ok(rows)
+    }
+
+    /// Current positions, m: (n, 3) float64, a copy. Setting it moves every vertex (checked
+    /// like [initial] positions: n finite rows; none inside an obstacle). Constrained components
+    /// are set again by their constraint at the next step.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let sim = self.lock();
+        arrays::from_vec3s(py, &sim.to_input_order(&sim.state.x))
+    }
+
+    #[setter]
+    fn set_positions(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let sim = self.sim_mut();
+        let n = sim.body.vertex_count();
+        let x = arrays::vec3s(value, "positions", Some(n))?;
+        sim.set_positions(&x).py()
+    }
+
+    /// Current velocities, m/s: (n, 3) float64, a copy. Setting it checks n finite rows;
+    /// constrained components are set to zero (their constraint moves them), and a quasistatic
+    /// run accepts only zeros.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let sim = self.lock();
+        arrays::from_vec3s(py, &sim.to_input_order(&sim.state.v))
+    }
+
+    #[setter]
+    fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let sim = self.sim_mut();
+        let n = sim.body.vertex_count();
+        let v = arrays::vec3s(value, "velocities", Some(n))?;
+        sim.set_velocities(&v).py()
+    }
+
+    /// Rest positions of the mesh, m: (n, 3) float64.
+    #[getter]
+    fn rest_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let sim = self.lock();
+        arrays::from_vec3s(py, &sim.to_input_order(&sim.body.mesh.positions))
+    }
+
+    /// The tets: (m, 4) int64 vertex indices into positions.
+    #[getter]
+    fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let sim = self.lock();
+        arrays::from_tets(py, &sim.input_tets())
+    }
+
+    /// Time, s (quasistatic: the load factor, 0 to 1).
+    #[getter]
+    fn time(&self) -> f64 {
+        let sim = self.lock();
+        sim.state.t
+    }
+
+    /// Frames done so far (0 before the first step).
+    #[getter]
+    fn frame(&self) -> usize {
+        let sim = self.lock();
+        sim.frame()
+    }
+
+    /// Frames of the whole run ([solver] frames).
+    #[getter]
+    fn frames(&self) -> usize {
+        let sim = self.lock();
+        sim.params.frames
+    }
+
+    /// True once every frame of the run is done.
+    #[getter]
+    fn is_finished(&self) -> bool {
+        let sim = self.lock();
+        sim.is_finished()
+    }
+
+    /// The scene this simulation was built from.
+    #[getter]
+    fn scene(&self) -> Scene {
+        Scene {
+            inner: self.scene.clone(),
+            origin: self.origin,
+        }
+    }
+
+    /// How many [[fixed]] entries the scene has (index them from 0).
+    #[getter]
+    fn fixed_count(&self) -> usize {
+        let sim = self.lock();
+        sim.boundary.constraints.len()
+    }
+
+    /// The vertices of [[fixed]] entry `index` (0-based: [[fixed]] #1 is 0), sorted: (k,) int64.
+    /// set_fixed_targets takes one target per vertex, in this order.
+    fn fixed_vertices<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyAny>> {
+        let sim = self.lock();
+        arrays::from_indices(py, &sim.fixed_vertices(index).py()?)
+    }
+
+    /// Give [[fixed]] entry `index` a new motion of its frame-0 positions, the keys of the
+    /// scene's `motion` and `duration` with their checks: rotate by rotate_degrees about axis
+    /// through center, then translate; ramped linearly over duration seconds from the start of
+    /// the run (None: the whole run; 0: at once). Takes effect at the next step and replaces
+    /// targets set by set_fixed_targets.
+    #[pyo3(signature = (index, translate=[0.0; 3], rotate_degrees=0.0, axis=[1.0, 0.0, 0.0], center=[0.0; 3], duration=None))]
+    fn set_fixed_motion(
+        &mut self,
+        index: usize,
+        translate: Triple,
+        rotate_degrees: f64,
+        axis: Triple,
+        center: Triple,
+        duration: Option<f64>,
+    ) -> PyResult<()> {
+        let sim = self.sim_mut();
+        let motion = Motion {
+            translate: Vec3::from(translate),
+            rotate_degrees,
+            axis: Vec3::from(axis),
+            center: Vec3::from(center),
+        };
+        sim.set_fixed_motion(index, motion, duration).py()
+    }
+
+    /// Hold the vertices of [[fixed]] entry `index` at `targets` ((k, 3) float64, one finite row
+    /// per vertex of fixed_vertices(index), in its order) from the next step on, in place of the
+    /// entry's motion. Only its constrained components follow.
+    fn set_fixed_targets(&mut self, index: usize, targets: &Bound<'_, PyAny>) -> PyResult<()> {
+        let sim = self.sim_mut();
+        let k = sim.fixed_vertices(index).py()?.len();
+        let targets = arrays::vec3s(targets, "targets", Some(k))?;
+        sim.set_fixed_targets(index, &targets).py()
+    }
+
+    fn __repr__(&self) -> String {
+        let sim = self.lock();
+        format!(
+            "Simulation(vertices={}, tets={}, frame={}/{}, time={})",
+            sim.body.vertex_count(),
+            sim.body.mesh.tets.len(),
+            sim.frame(),
+            sim.params.frames,
+            sim.state.t
+        )
+    }
+}
+
+impl Simulation {
+    /// The simulation, for `&self` methods.
+    fn lock(&self) -> MutexGuard<'_, tetsim::Simulation> {
+        self.sim.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The simulation, for `&mut self` methods (no locking).
+    fn sim_mut(&mut self) -> &mut tetsim::Simulation {
+        self.sim.get_mut().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// One frame's steps.csv columns as a dict.
+fn columns<'py>(py: Python<'py>, stats: &StepStats, contact: bool) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    for (name, cell) in step_columns(stats, contact) {
+        match cell {
+            Cell::Count(n) => dict.set_item(name, n)?,
+            Cell::Real(x) => dict.set_item(name, x)?,
+            Cell::Flag(b) => dict.set_item(name, b)?,
+            Cell::Empty => dict.set_item(name, py.None())?,
+        }
+    }
+    Ok(dict)
+}
+
+/// Stepping past the last frame is refused: ramps and load factors end there.
+fn check_not_finished(sim: &tetsim::Simulation) -> PyResult<()> {
+    if sim.is_finished() {
+        return Err(argument(
+            "solver.frames",
+            format!(
+                "the run is finished: all {} frames are done (is_finished is True)",
+                sim.params.frames
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,293 @@
+"""tetsim: large elastic deformation on tetrahedral meshes.
+
+Scene.load(path) or Scene.from_dict(d) describe a run, Simulation(scene) steps it (step(),
+run(out_dir)), read_mesh / write_mesh read and write tet meshes, and Material evaluates a
+constitutive model on deformation gradients. Arrays are numpy float64 / int64, C-contiguous;
+every error is a tetsim.Error (a ValueError) with the command line's message.
+"""
+
+from os import PathLike
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+STEPS_COLUMNS: List[str]
+"""The steps.csv columns every step() dict has, in order (SPEC §10, then extensions)."""
+
+CONTACT_COLUMNS: List[str]
+"""The columns step() dicts add when the scene has contact: contacts, min_distance,
+contact_energy, friction_dissipation."""
+
+_Path = Union[str, "PathLike[str]"]
+_F64 = npt.NDArray[np.float64]
+_I64 = npt.NDArray[np.int64]
+_Vec3 = Sequence[float]
+
+class Error(ValueError):
+    """A bad input or a run that cannot go on: str(e) is the command line's message.
+
+    Scene files: '<file>:<line>:<column>: <key>: <what is wrong>'; Scene.from_dict and
+    Material leave out the location of the TOML text they make and keep the key.
+    """
+
+    message: str
+    """The same as str(e)."""
+    file: Optional[str]
+    """The file the error is in (scene, mesh, positions), or None."""
+    line: Optional[int]
+    """1-based line in `file`, where the format has lines."""
+    column: Optional[int]
+    """1-based column in a scene file."""
+    key: Optional[str]
+    """The scene key or argument, e.g. 'solver.dt', '[[fixed]] #1 motion.translate',
+    'positions', 'poisson_ratio', or None."""
+    frame: Optional[int]
+    """The frame that failed (a step that cannot go on), or None."""
+
+class Scene:
+    """A scene: the mesh, material, boundary conditions, solver and output settings of a run,
+    with every value checked (docs/scene-reference.md lists every key).
+
+    Immutable: change a copy with to_dict() and from_dict().
+    """
+
+    @staticmethod
+    def load(path: _Path) -> "Scene":
+        """Read and check a scene file (TOML); its relative paths are relative to its folder.
+
+        Raises Error naming the file, line and key of the first bad value.
+        """
+
+    @staticmethod
+    def from_dict(values: Mapping[str, Any], base_dir: Optional[_Path] = None) -> "Scene":
+        """A scene from Python values with the TOML keys: dicts for tables, lists of dicts for
+        [[fixed]], [[load]], [[volume]], [[obstacle]]; numbers, strings, bools, lists, paths and
+        numpy arrays for values. Relative paths are relative to base_dir (default: the current
+        folder).
+
+        Raises Error whose key names the bad key (e.g. 'solver.frobnicate').
+        """
+
+    @staticmethod
+    def default() -> "Scene":
+        """The built-in default scene (what `tetsim run` runs without a scene file)."""
+
+    def to_dict(self) -> Dict[str, Any]:
+        """Every key with its value, defaults filled in (from_dict takes it back)."""
+
+    @property
+    def path(self) -> str:
+        """The scene file ('<dict>' for from_dict, '<built-in default scene>')."""
+
+    @property
+    def source(self) -> str:
+        """The scene's TOML text."""
+
+    @property
+    def frames(self) -> int:
+        """Frames (backward Euler) or load steps (quasistatic) of the run."""
+
+class Simulation:
+    """A running simulation of a scene: its body, boundary conditions, state and solver.
+
+    Vertex arrays (positions, velocities, rest_positions, tets, fixed vertices) use the mesh
+    file's numbering, the same as the output frames. Between steps you may set positions and
+    velocities and move the fixed vertices; each value is checked like the same value in a scene
+    file. The GIL is released while stepping.
+    """
+
+    def __init__(self, scene: Scene) -> None:
+        """Build everything the scene describes (reads its mesh), ready to step from frame 0.
+
+        Raises Error for a mesh that cannot be simulated or a region that selects nothing.
+        """
+
+    def step(self) -> Dict[str, Union[int, float, bool, None]]:
+        """Advance one frame (all its substeps); return its row of steps.csv as a dict keyed by
+        STEPS_COLUMNS (then CONTACT_COLUMNS with contact; min_distance is None when nothing is
+        near).
+
+        Raises Error when the run is finished, or when the frame fails under [solver]
+        on_failure (the state is then left as it was before the step).
+        """
+
+    def run(
+        self, out_dir: Optional[_Path] = None, deterministic: Optional[bool] = None
+    ) -> List[Dict[str, Union[int, float, bool, None]]]:
+        """Run every remaining frame, writing what `tetsim run --no-pictures` writes into out_dir
+        (default: the scene's [output] dir), with the same bytes: frame_NNNN.vtu (the current
+        frame first), frames.pvd, surface_NNNN.obj, steps.csv, timings.csv, manifest.json.
+        deterministic=True writes steps.csv's wall_seconds as 0 (like --deterministic).
+
+        Returns the step() dicts of the frames run. Ctrl-C stops between frames (raising
+        KeyboardInterrupt), every file written so far valid and the manifest saying so.
+        """
+
+    @property
+    def positions(self) -> _F64:
+        """Current positions, m: (n, 3) float64, a copy.
+
+        Setting it moves every vertex (checked like [initial] positions: n finite rows, none
+        inside an obstacle); constrained components are set again by their constraint at the
+        next step.
+        """
+
+    @positions.setter
+    def positions(self, value: _F64) -> None: ...
+
+    @property
+    def velocities(self) -> _F64:
+        """Current velocities, m/s: (n, 3) float64, a copy.
+
+        Setting it checks n finite rows; constrained components are set to zero (their
+        constraint moves them); a quasistatic run accepts only zeros.
+        """
+
+    @velocities.setter
+    def velocities(self, value: _F64) -> None: ...
+
+    @property
+    def rest_positions(self) -> _F64:
+        """Rest positions of the mesh, m: (n, 3) float64."""
+
+    @property
+    def tets(self) -> _I64:
+        """The tets: (m, 4) int64 indices into positions."""
+
+    @property
+    def time(self) -> float:
+        """Time, s (quasistatic: the load factor, 0 to 1)."""
+
+    @property
+    def frame(self) -> int:
+        """Frames done so far (0 before the first step)."""
+
+    @property
+    def frames(self) -> int:
+        """Frames of the whole run ([solver] frames)."""
+
+    @property
+    def is_finished(self) -> bool:
+        """True once every frame of the run is done."""
+
+    @property
+    def scene(self) -> Scene:
+        """The scene this simulation was built from."""
+
+    @property
+    def fixed_count(self) -> int:
+        """How many [[fixed]] entries the scene has (index them from 0)."""
+
+    def fixed_vertices(self, index: int) -> _I64:
+        """The vertices of [[fixed]] entry `index` (0-based: [[fixed]] #1 is 0), sorted: (k,)
+        int64. set_fixed_targets takes one target per vertex, in this order."""
+
+    def set_fixed_motion(
+        self,
+        index: int,
+        translate: _Vec3 = (0.0, 0.0, 0.0),
+        rotate_degrees: float = 0.0,
+        axis: _Vec3 = (1.0, 0.0, 0.0),
+        center: _Vec3 = (0.0, 0.0, 0.0),
+        duration: Optional[float] = None,
+    ) -> None:
+        """Give [[fixed]] entry `index` a new motion of its frame-0 positions, with the checks of
+        the scene's `motion` and `duration` keys: rotate by rotate_degrees about axis through
+        center, then translate; ramped linearly over duration seconds from the start of the run
+        (None: the whole run; 0: at once). Takes effect at the next step and replaces targets
+        set by set_fixed_targets."""
+
+    def set_fixed_targets(self, index: int, targets: _F64) -> None:
+        """Hold the vertices of [[fixed]] entry `index` at `targets` ((k, 3) float64, one finite
+        row per vertex of fixed_vertices(index), in its order) from the next step on, in place
+        of the entry's motion. Only its constrained components follow."""
+
+class Mesh:
+    """A tet mesh read from a file."""
+
+    vertices: _F64
+    """(n, 3) float64 vertex positions, m."""
+    tets: _I64
+    """(m, 4) int64 vertex indices of each tet (positively oriented)."""
+    groups: Dict[str, _I64]
+    """Named groups (Gmsh physical groups of any dimension): name -> sorted vertex ids."""
+    tet_groups: Dict[str, _I64]
+    """Named volume groups: name -> tet ids."""
+    format: str
+    """The format read, e.g. 'Gmsh 4.1 ASCII'."""
+
+def read_mesh(path: _Path, force: bool = False) -> Mesh:
+    """Read a tet mesh: Gmsh .msh (2.2, 4.1; ASCII or binary), TetGen .node/.ele, VTK
+    .vtk/.vtu, MEDIT .mesh. Vertices no tet uses are dropped, tets reoriented to positive
+    volume, and a mesh with degenerate or duplicate tets refused unless force=True.
+
+    Raises Error naming the file and line of a malformed file.
+    """
+
+def write_mesh(
+    path: _Path,
+    vertices: _F64,
+    tets: _I64,
+    groups: Optional[Mapping[str, _I64]] = None,
+) -> None:
+    """Write a tet mesh in the format of path's extension: .msh (Gmsh 4.1 ASCII), .vtu, .vtk,
+    .node/.ele (TetGen), .mesh (MEDIT), .obj (the boundary surface). vertices (n, 3) float64;
+    tets (m, 4) int64 indices into vertices; groups: name -> vertex ids (int64), written as
+    Gmsh physical groups of points in a .msh (the other formats have no groups). Written
+    atomically (a temp file renamed)."""
+
+class Material:
+    """A constitutive model: energy density Ψ(F) (J/m³), first Piola-Kirchhoff stress
+    P(F) = ∂Ψ/∂F (Pa) and its tangent ∂P/∂F, on arrays of deformation gradients (k, 3, 3).
+
+    Models: neo-hookean, neo-hookean-clamped, corotated, stable-neo-hookean,
+    st-venant-kirchhoff, mooney-rivlin, linear. Give youngs_modulus and poisson_ratio, or mu and
+    lam (λ), as in the scene's [material] (defaults E = 1e5 Pa, ν = 0.3), with its checks.
+    """
+
+    def __init__(
+        self,
+        model: str = "neo-hookean",
+        *,
+        youngs_modulus: Optional[float] = None,
+        poisson_ratio: Optional[float] = None,
+        mu: Optional[float] = None,
+        lam: Optional[float] = None,
+    ) -> None: ...
+
+    @property
+    def model(self) -> str:
+        """The model's scene name, e.g. 'neo-hookean'."""
+
+    @property
+    def mu(self) -> float:
+        """Lamé μ (shear modulus), Pa."""
+
+    @property
+    def lam(self) -> float:
+        """Lamé λ, Pa."""
+
+    @property
+    def youngs_modulus(self) -> float:
+        """Young's modulus E, Pa."""
+
+    @property
+    def poisson_ratio(self) -> float:
+        """Poisson ratio ν."""
+
+    def energy(self, F: _F64) -> _F64:
+        """Energy density Ψ(F), J/m³: (k, 3, 3) float64 -> (k,) float64."""
+
+    def stress(self, F: _F64) -> _F64:
+        """First Piola-Kirchhoff stress P(F), Pa: (k, 3, 3) -> (k, 3, 3) float64."""
+
+    def tangent(self, F: _F64, definiteness: str = "none") -> _F64:
+        """∂P/∂F, Pa: (k, 3, 3) -> (k, 9, 9) float64 with T[k, 3i+j, 3l+m] = ∂P_ij/∂F_lm, so that
+        (T @ dF.reshape(k, 9, 1)).reshape(k, 3, 3) is the stress differential.
+
+        definiteness: 'none' (the exact derivative), or the solver's positive semi-definite
+        fixes 'teran', 'analytic', 'abs', 'adaptive'.
+        """
