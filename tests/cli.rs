@@ -6,6 +6,8 @@ use std::process::{Command, Output};
 
 #[path = "cli/contact.rs"]
 mod contact;
+#[path = "cli/trust.rs"]
+mod trust;
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use tetsim::contact::display::{DisplaySurface, scene_box};
-use tetsim::diagnose::{RunSummary, plausibility_warnings};
+use tetsim::diagnose::{RunSummary, folded_finding, plausibility_warnings};
 use tetsim::math::Vec3;
 use tetsim::output::Recorder;
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
@@ -188,7 +188,9 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
             render::plot_steps(&out.join("steps.csv"), &out).context("plotting steps.csv")?,
         );
     }
-    display.add_pictures(drawing.elapsed());
+    if !pictures.is_empty() {
+        display.add_pictures(drawing.elapsed());
+    }
     let status = failure
         .as_ref()
         .map_or("complete".to_string(), |e| format!("stopped: {e}"));
@@ -203,6 +205,15 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
         }
         for finding in summary.findings(&sim.body, &sim.state.x, &sim.params) {
             eprintln!("note: {finding}");
+        }
+        if let Some(folded) = folded_finding(
+            &sim.body,
+            &sim.boundary,
+            sim.contact_setup().is_some(),
+            &sim.state.x,
+            sim.kinetic_energy(),
+        ) {
+            eprintln!("note: {folded}");
         }
     }
     match failure {
