@@ -313,9 +313,9 @@ fn console_names_the_relative_residual_and_times_pictures_apart() {
     assert!(out.status.success(), "{err}");
     assert!(err.contains("relative residual"), "{err}");
     assert!(err.contains("pictures and plots"), "{err}");
-    let out = tetsim(
-        dir.path(),
-        &[
+    // -v itself, not RUST_LOG (which the `tetsim` helper sets and which overrides -v).
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tetsim"))
+        .args([
             "-v",
             "run",
             "--frames",
@@ -323,8 +323,11 @@ fn console_names_the_relative_residual_and_times_pictures_apart() {
             "--out",
             "out",
             "--no-pictures",
-        ],
-    );
+        ])
+        .current_dir(dir.path())
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
     let err = stderr(&out);
     assert_eq!(err.matches("frame 1/2").count(), 1, "{err}");
     assert!(err.contains("frame 2/2") && err.contains(" N "), "{err}");
