@@ -98,6 +98,56 @@ pub fn plausibility_warnings(
     warnings
 }
 
+/// A run that ends folded: at rest, nothing holding it deformed (no gravity, loads, prescribed
+/// motions or obstacles), yet storing elastic energy above that of a 1 % strain everywhere. A
+/// start mirrored or scrambled through itself can settle in such a state with every tet
+/// positively oriented (258 J on a 1 m³ block of the default material): Neo-Hookean's energy has
+/// minima besides rest once tets have passed through inversion. Returns the finding in words.
+pub fn folded_finding(
+    body: &ElasticBody,
+    boundary: &Boundary,
+    contact: bool,
+    x: &[Vec3],
+    kinetic: f64,
+) -> Option<String> {
+    let driven = boundary.gravity != Vec3::zeros()
+        || !boundary.loads.is_empty()
+        || contact
+        || boundary.constraints.iter().any(|c| {
+            c.until.is_none()
+                && (c.motion.translate != Vec3::zeros() || c.motion.rotate_degrees != 0.0)
+        });
+    if driven {
+        return None;
+    }
+    let mut df = Mat3::zeros();
+    df[(0, 1)] = 1.0;
+    let mu = body.model.stress_differential(&Mat3::identity(), &df)[(0, 1)];
+    let volume: f64 = body.masses().iter().sum::<f64>() / body.density;
+    let scale = mu * volume * FOLDED_STRAIN * FOLDED_STRAIN;
+    let stored = body.energy(x);
+    (stored > scale && kinetic < 1e-3 * stored).then(|| {
+        let advice = if body.model.kind() == crate::material::ModelKind::NeoHookean {
+            "run it with model = \"neo-hookean-clamped\", whose energy has rest as its only minimum \
+             (see docs/user-guide.md on recovering from tangled starts)"
+                .to_string()
+        } else {
+            "a model with rest as its only minimum, such as \"neo-hookean-clamped\", recovers \
+             from such starts"
+                .to_string()
+        };
+        format!(
+            "the body ended folded: at rest with nothing holding it, it still stores {stored:.3e} J \
+             of elastic energy (a 1 % strain everywhere would be {scale:.1e} J), so it settled in \
+             a state other than its rest shape, likely from a start that passed tets through \
+             inversion; {advice}"
+        )
+    })
+}
+
+/// Strain whose energy everywhere marks a body at rest as folded (see [`folded_finding`]).
+const FOLDED_STRAIN: f64 = 0.01;
+
 /// Newton iterations per step from which a frame counts as slow (for the clamping note).
 pub const SLOW_NEWTON: usize = 8;
 
@@ -292,5 +342,44 @@ impl fmt::Display for RunSummary {
             self.min_j.0,
             self.min_j.1
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::{Lame, Model, ModelKind};
+    use crate::mesh::generate::box_mesh;
+
+    fn cube() -> ElasticBody {
+        let mesh = box_mesh(Vec3::zeros(), Vec3::repeat(1.0), [2, 2, 2]);
+        let lame = Lame {
+            mu: 3.8e4,
+            lambda: 5.8e4,
+        };
+        ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame), 1000.0).unwrap()
+    }
+
+    #[test]
+    fn a_body_left_deformed_with_nothing_holding_it_is_said_folded() {
+        let body = cube();
+        let free = Boundary {
+            constraints: Vec::new(),
+            loads: Vec::new(),
+            gravity: Vec3::zeros(),
+        };
+        let rest = body.mesh.positions.clone();
+        assert!(folded_finding(&body, &free, false, &rest, 0.0).is_none());
+        let stretched: Vec<Vec3> = rest.iter().map(|p| 1.2 * p).collect();
+        let said = folded_finding(&body, &free, false, &stretched, 0.0).expect("folded");
+        assert!(said.contains("neo-hookean-clamped"), "{said}");
+        // Moving, or held by gravity or an obstacle: not a verdict.
+        assert!(folded_finding(&body, &free, false, &stretched, 1e6).is_none());
+        assert!(folded_finding(&body, &free, true, &stretched, 0.0).is_none());
+        let weighed = Boundary {
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            ..free
+        };
+        assert!(folded_finding(&body, &weighed, false, &stretched, 0.0).is_none());
     }
 }

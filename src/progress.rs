@@ -275,7 +275,7 @@ pub fn summary(
     }
     newton.push(')');
     let row = |s: &mut String, key: &str, value: &str| {
-        let _ = writeln!(s, "  {key:<19}{value}");
+        let _ = writeln!(s, "  {key:<24}{value}");
     };
     row(&mut s, "Newton iterations", &newton);
     row(
@@ -460,8 +460,8 @@ mod tests {
         );
         assert!(s.lines().count() <= 20, "{s}");
         assert!(s.contains("60 frames in 12.5 s"), "{s}");
-        assert!(s.contains("Newton iterations  180"), "{s}");
-        assert!(s.contains("CG iterations      1800"), "{s}");
+        assert!(s.contains("Newton iterations       180"), "{s}");
+        assert!(s.contains("CG iterations           1800"), "{s}");
         assert!(s.contains("1 frame: 12"), "{s}");
         assert!(
             s.contains("frame_0000.vtu … frame_0060.vtu (61 files)"),

@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 mod contact;
 #[path = "cli/resume.rs"]
 mod resume;
+#[path = "cli/trust.rs"]
+mod trust;
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")

@@ -70,13 +70,38 @@ pub fn run(cmd: MeshCommand) -> anyhow::Result<()> {
                 _ => io::write_mesh(&output, &read.mesh),
             };
             written.with_context(|| format!("cannot convert {}", input.display()))?;
+            // Count the groups the written file gives back, not the ones we had: VTU and VTK
+            // hold no named groups, and a user converting must not believe they came along.
+            let had = read.mesh.groups.len();
+            let kept = io::parse_mesh(&output).map_or(0, |(p, _)| {
+                read.mesh
+                    .groups
+                    .iter()
+                    .filter(|g| p.mesh.group(&g.name).is_some())
+                    .count()
+            });
             println!(
-                "wrote {} ({} vertices, {} tets, {} groups)",
+                "wrote {} ({} vertices, {} tets, {kept} of {had} groups)",
                 output.display(),
                 read.mesh.positions.len(),
                 read.mesh.tets.len(),
-                read.mesh.groups.len()
             );
+            if kept < had {
+                let names: Vec<String> = read
+                    .mesh
+                    .groups
+                    .iter()
+                    .map(|g| tetsim::error::clip(&g.name))
+                    .take(10)
+                    .collect();
+                eprintln!(
+                    "warning: {} groups dropped ({}{}): this format keeps no named groups \
+                     that tetsim reads back; write .msh to keep them",
+                    had - kept,
+                    names.join(", "),
+                    if had > 10 { ", …" } else { "" }
+                );
+            }
             Ok(())
         }
     }

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use anyhow::Context;
 use tetsim::checkpoint::{Checkpoint, FILE_NAME, RunRecord};
-use tetsim::diagnose::{RunSummary, plausibility_warnings};
+use tetsim::diagnose::{RunSummary, folded_finding, plausibility_warnings};
 use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
 use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
@@ -212,7 +212,9 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
             }
         }
     }
-    display.add_pictures(drawing.elapsed());
+    if scene.output.pictures && !interrupted {
+        display.add_pictures(drawing.elapsed());
+    }
     let text = display.finish(&out, &files);
     if !quiet {
         eprintln!("{text}");
@@ -221,6 +223,15 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
         }
         for finding in summary.findings(&sim.body, &sim.state.x, &sim.params) {
             eprintln!("note: {finding}");
+        }
+        if let Some(folded) = folded_finding(
+            &sim.body,
+            &sim.boundary,
+            sim.contact_setup().is_some(),
+            &sim.state.x,
+            sim.kinetic_energy(),
+        ) {
+            eprintln!("note: {folded}");
         }
     }
     if interrupted {
