@@ -4,6 +4,8 @@ mod bench;
 mod check;
 mod compare;
 pub mod mesh;
+#[cfg(feature = "mpi")]
+mod mpirun;
 mod render;
 mod run;
 
@@ -67,6 +69,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             .build_global()?;
     }
     match cli.command {
+        #[cfg(feature = "mpi")]
+        Command::Run(args) if mpirun::launched() => mpirun::run(args, cli.quiet),
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Render(args) => render::run(args, cli.quiet),

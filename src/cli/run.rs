@@ -57,6 +57,8 @@ pub fn run(args: RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
     let out = args.out.clone().unwrap_or_else(|| scene.output.dir.clone());
     let mut sim = Simulation::from_scene(&scene)?;
+    #[cfg(feature = "mpi")]
+    super::mpirun::attach(&mut sim, &scene)?;
     let mut warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
     for w in &warnings {
         log::warn!("{w}");
