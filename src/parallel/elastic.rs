@@ -282,10 +282,10 @@ mod tests {
         let parts = vec![partition.part(&body.mesh, 0)];
         let sink = Arc::new(Mutex::new(Dense(n, vec![0.0; 9 * n * n])));
         let mut pe = PartitionedElasticity::new(&body, parts, Box::new(Alone), sink.clone());
-        let mut lin = Linearization::new(pe.body(), Definiteness::Clamp);
+        let mut lin = Linearization::new(pe.body(), Definiteness::Projected);
         let (mut f, mut kv) = (vec![Vec3::zeros(); n], vec![Vec3::zeros(); n]);
         let energy = pe.evaluate(&x, Some(&x), &mut lin, &mut f, &mut kv);
-        let mut serial_lin = body.linearize(&x, Definiteness::Clamp);
+        let mut serial_lin = body.linearize(&x, Definiteness::Projected);
         let mut serial = vec![Vec3::zeros(); n];
         body.add_forces(&x, &mut serial);
         assert!((energy - body.energy(&x)).abs() <= 1e-12 * energy.abs());

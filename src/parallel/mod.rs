@@ -70,11 +70,12 @@ pub(crate) mod setup {
         pub solve_seconds: f64,
         /// Seconds assembling the PETSc matrix and setting up its preconditioner.
         pub setup_seconds: f64,
-        /// Bytes PETSc sent from this rank inside KSPSolve (matrix products, multigrid,
-        /// reductions counted by PETSc's logging).
+        /// Bytes PETSc sent from this rank inside KSPSolve (matrix products, V-cycles,
+        /// reductions: PETSc's logged sends).
         pub petsc_solve_bytes: f64,
-        /// Bytes sent by the matrix assembly (other ranks' rows of this rank's tets).
-        pub petsc_assembly_bytes: f64,
+        /// Bytes PETSc sent assembling the matrix (other ranks' rows of this rank's tets) and
+        /// setting up the preconditioner (GAMG's coarsening and Galerkin products).
+        pub petsc_setup_bytes: f64,
         /// Bytes this rank sent in the elasticity all-gathers (forces, K·v, energy).
         pub exchange_bytes: f64,
         /// Elasticity evaluations (one per Newton iterate and line-search trial).

@@ -184,8 +184,9 @@ mod tests {
                 assert!(q.ghosts().iter().all(|&v| p.vertex_owner[v] as usize != r));
                 assert_eq!(q.tets.len(), counts[r]);
             }
-            if parts > 1 {
-                // A cut through a box: ghosts are a thin layer, not a copy of the mesh.
+            if (2..=4).contains(&parts) {
+                // A cut through a box: ghosts are a thin layer, not a copy of the mesh (with 7
+                // parts of this small box most vertices are near a cut).
                 let ghosts: usize = all.iter().map(|q| q.ghosts().len()).sum();
                 assert!(
                     ghosts * 4 < mesh.positions.len(),
@@ -221,7 +222,7 @@ mod tests {
             for q in &all {
                 let sub = body.part(&q.tets, &q.vertices);
                 let xl: Vec<Vec3> = q.vertices.iter().map(|&v| x[v]).collect();
-                let mut lin = crate::elastic::Linearization::new(&sub, Definiteness::Clamp);
+                let mut lin = crate::elastic::Linearization::new(&sub, Definiteness::Projected);
                 let mut f = vec![Vec3::zeros(); q.vertices.len()];
                 energy += sub.linearize_into(&xl, &mut lin, &mut f);
                 gathered.extend(f.iter().flat_map(|v| [v.x, v.y, v.z]));

@@ -108,6 +108,7 @@ unsafe extern "C" {
         dtol: PetscReal,
         maxits: PetscInt,
     ) -> PetscErrorCode;
+    fn KSPSetUp(ksp: Object) -> PetscErrorCode;
     fn KSPSolve(ksp: Object, b: Object, x: Object) -> PetscErrorCode;
     fn KSPGetIterationNumber(ksp: Object, its: *mut PetscInt) -> PetscErrorCode;
     fn KSPGetConvergedReason(ksp: Object, reason: *mut c_int) -> PetscErrorCode;
@@ -487,11 +488,14 @@ impl Ksp {
         }
     }
 
-    /// Use `a` as operator and preconditioner matrix (the preconditioner is rebuilt at the next
-    /// solve).
+    /// Use `a` as operator and preconditioner matrix and build the preconditioner now (so that
+    /// its cost is not counted in the solve's).
     pub fn set_operator(&mut self, a: &Matrix) -> Result<()> {
         // SAFETY: the KSP takes its own reference to the matrix.
-        unsafe { check(KSPSetOperators(self.ksp, a.a, a.a), "KSPSetOperators") }
+        unsafe {
+            check(KSPSetOperators(self.ksp, a.a, a.a), "KSPSetOperators")?;
+            check(KSPSetUp(self.ksp), "KSPSetUp")
+        }
     }
 
     /// Solve `A·x = b` from x = 0 to `rtol` (relative to ‖b‖) in at most `max_iterations`.

@@ -174,7 +174,7 @@ impl LinearSolver for PetscSolver {
         let bytes = self.petsc.bytes_sent() - sent;
         let seconds = started.elapsed().as_secs_f64();
         record(|s| {
-            s.petsc_assembly_bytes += bytes;
+            s.petsc_setup_bytes += bytes;
             s.setup_seconds += seconds;
         });
     }
