@@ -31,7 +31,7 @@ impl ElasticBody {
         let incidence = Incidence::new(vertices.len(), &part_tets);
         ElasticBody {
             mesh: TetMesh::new(positions, part_tets),
-            model: self.model.clone(),
+            model: self.model,
             density: self.density,
             regions: self.regions.clone(),
             tet_material: if self.tet_material.is_empty() {
