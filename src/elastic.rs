@@ -20,6 +20,8 @@ use crate::material::{Definiteness, DiagonalPieces, Model, Tangent};
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
 
+mod part;
+
 /// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
 /// are the same on any machine.
 const CHUNK: usize = 512;

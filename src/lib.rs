@@ -78,7 +78,10 @@
 //!   "cholesky"`); faer adds minutes to a cold build.
 
 #![warn(missing_docs)]
-#![forbid(unsafe_code)]
+// No unsafe code, except with the `mpi` feature in one module: PETSc's FFI
+// (src/parallel/petsc.rs), where every block says why it is sound.
+#![cfg_attr(not(feature = "mpi"), forbid(unsafe_code))]
+#![cfg_attr(feature = "mpi", deny(unsafe_code))]
 
 pub mod audit;
 #[cfg(feature = "cli")]
@@ -99,6 +102,7 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod output;
+pub mod parallel;
 #[cfg(feature = "cli")]
 pub mod progress;
 #[cfg(feature = "render")]

@@ -136,6 +136,13 @@ impl Simulation {
         })
     }
 
+    /// Newton's workspace (under MPI, to hand its terms and solver to the ranks: see
+    /// [`crate::parallel`]).
+    #[cfg(feature = "mpi")]
+    pub fn newton_mut(&mut self) -> &mut Newton {
+        &mut self.newton
+    }
+
     /// Say that the body's mesh is a renumbering of the input mesh (see
     /// [`crate::mesh::ordering`]), so that output is written in the input's numbering.
     pub fn with_renumbering(mut self, renumbering: Option<Renumbering>) -> Self {

@@ -4,6 +4,8 @@ mod bench;
 mod check;
 mod compare;
 pub mod mesh;
+#[cfg(feature = "mpi")]
+mod mpirun;
 mod render;
 mod run;
 mod saved;
@@ -80,6 +82,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             .build_global()?;
     }
     match cli.command {
+        #[cfg(feature = "mpi")]
+        Command::Run(args) if mpirun::launched() => mpirun::run(args, cli.quiet, cli.verbose),
         Command::Run(args) => run::run(args, cli.quiet, cli.verbose),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Render(args) => render::run(args, cli.quiet),

@@ -66,6 +66,8 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     }
 
     let mut sim = Simulation::from_scene(&scene)?;
+    #[cfg(feature = "mpi")]
+    super::mpirun::attach(&mut sim, &scene)?;
     if checkpoint.is_none() {
         // After building: a missing file is reported at its scene key by the build.
         record.inputs = tetsim::manifest::input_hashes(&scene)?.to_string();

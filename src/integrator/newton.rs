@@ -88,6 +88,12 @@ impl Newton {
             .bytes_per_iteration(body.matrix_free_bytes_per_product())
     }
 
+    /// Replace the linear solver (under MPI: PETSc's, see [`crate::parallel`]).
+    #[cfg(feature = "mpi")]
+    pub fn set_linear_solver(&mut self, solver: Box<dyn LinearSolver>) {
+        self.solver = solver;
+    }
+
     /// What the linear solver did so far.
     pub fn solver_report(&self) -> SolverReport {
         self.solver.report()

@@ -158,6 +158,10 @@ pub struct Elasticity {
     pattern: BlockPattern,
     work: AssemblyWork,
     energy: f64,
+    /// Under MPI: this rank's part of the body, evaluated here and summed over the ranks
+    /// (see [`crate::parallel`]); `lin` then holds the part's tangents.
+    #[cfg(feature = "mpi")]
+    parts: Option<crate::parallel::elastic::PartitionedElasticity>,
 }
 
 impl Elasticity {
@@ -174,7 +178,28 @@ impl Elasticity {
             pattern: body.stiffness_pattern(),
             work: AssemblyWork::default(),
             energy: 0.0,
+            #[cfg(feature = "mpi")]
+            parts: None,
         }
+    }
+
+    /// Elasticity evaluated by parts over MPI ranks (see [`crate::parallel`]): the matrix goes
+    /// to the parts' sink, the Hessian's pattern seen by the solvers is the diagonal only.
+    #[cfg(feature = "mpi")]
+    pub fn partitioned(
+        body: &ElasticBody,
+        definiteness: Definiteness,
+        parts: crate::parallel::elastic::PartitionedElasticity,
+    ) -> Self {
+        let n = body.vertex_count();
+        let mut e = Self::new(parts.body(), definiteness);
+        e.f_el = vec![Vec3::zeros(); n];
+        e.kv = vec![Vec3::zeros(); n];
+        e.scratch = vec![Vec3::zeros(); n];
+        let diagonal: Vec<Vec<u32>> = (0..n as u32).map(|i| vec![i]).collect();
+        e.pattern = BlockPattern::from_rows(&diagonal);
+        e.parts = Some(parts);
+        e
     }
 
     /// The linearization at the last evaluation.
@@ -204,6 +229,12 @@ impl Elasticity {
 
     /// `a = (1 + γ/h)·K`: every block of `a` set (see [`ElasticBody::write_stiffness`]).
     pub fn write_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
+        #[cfg(feature = "mpi")]
+        if let Some(parts) = &mut self.parts {
+            parts.write_matrix(&self.lin, Self::scale(ctx), ctx.free);
+            a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
+            return;
+        }
         ctx.body
             .write_stiffness(&self.lin, Self::scale(ctx), a, &mut self.work, true);
     }
@@ -231,11 +262,25 @@ impl Term for Elasticity {
         _partials: &mut [f64],
     ) -> f64 {
         let body = ctx.body;
-        self.energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
         let gamma = ctx.stiffness_damping();
+        #[cfg(feature = "mpi")]
+        let by_parts = self.parts.as_mut().map(|parts| {
+            let v = (gamma != 0.0).then_some(v);
+            parts.evaluate(x, v, &mut self.lin, &mut self.f_el, &mut self.kv)
+        });
+        #[cfg(not(feature = "mpi"))]
+        let by_parts: Option<f64> = None;
+        match by_parts {
+            Some(energy) => self.energy = energy,
+            None => {
+                self.energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
+                if gamma != 0.0 {
+                    body.apply_stiffness(&mut self.lin, v, &mut self.kv);
+                }
+            }
+        }
         let f_el = &self.f_el;
         if gamma != 0.0 {
-            body.apply_stiffness(&mut self.lin, v, &mut self.kv);
             let kv = &self.kv;
             force
                 .par_iter_mut()
@@ -257,6 +302,14 @@ impl Term for Elasticity {
     }
 
     fn add_hessian_product(&mut self, ctx: &StepContext<'_>, p: &[Vec3], out: &mut [Vec3]) {
+        #[cfg(feature = "mpi")]
+        if let Some(parts) = &mut self.parts {
+            parts.product(&mut self.lin, p, &mut self.scratch);
+        } else {
+            ctx.body
+                .apply_stiffness(&mut self.lin, p, &mut self.scratch);
+        }
+        #[cfg(not(feature = "mpi"))]
         ctx.body
             .apply_stiffness(&mut self.lin, p, &mut self.scratch);
         let k = Self::scale(ctx);
@@ -268,6 +321,14 @@ impl Term for Elasticity {
 
     fn add_diagonal_blocks(&mut self, ctx: &StepContext<'_>, out: &mut [Mat3]) {
         self.blocks.resize(out.len(), Mat3::zeros());
+        #[cfg(feature = "mpi")]
+        if let Some(parts) = &mut self.parts {
+            parts.diagonal_blocks(&self.lin, &mut self.blocks);
+        } else {
+            ctx.body
+                .stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
+        }
+        #[cfg(not(feature = "mpi"))]
         ctx.body
             .stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
         let k = Self::scale(ctx);

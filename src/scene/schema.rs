@@ -476,6 +476,11 @@ pub struct SolverSpec {
     pub on_failure: OnFailureName,
     /// Step halvings allowed by "retry". Default 4.
     pub max_step_cuts: usize,
+    /// PETSc options for runs under `mpirun` (feature `mpi`), in PETSc's command-line syntax:
+    /// "-ksp_type minres -pc_type hypre". They take precedence over PETSC_OPTIONS. Serial runs
+    /// ignore them. Default "" (CG with GAMG).
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub petsc_options: String,
 }
 
 impl Default for SolverSpec {
@@ -500,6 +505,7 @@ impl Default for SolverSpec {
             cholesky_reuse: p.cholesky_reuse,
             on_failure: OnFailureName::Retry,
             max_step_cuts: p.max_step_cuts,
+            petsc_options: String::new(),
         }
     }
 }
