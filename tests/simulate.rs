@@ -1567,6 +1567,7 @@ fn ground_contact(friction: Option<f64>) -> tetsim::contact::ContactSetup {
             duration: None,
         }],
         params: Default::default(),
+        ..Default::default()
     }
 }
 
@@ -1769,6 +1770,7 @@ fn moving_plate_presses_a_block_without_passing_through_it() {
             ),
         ],
         params: Default::default(),
+        ..Default::default()
     };
     let mut sim = Simulation::from_scene(&scene)
         .unwrap()
