@@ -115,6 +115,14 @@ pub struct ContactReport {
     pub ns_per_primitive_ccd: f64,
     /// Share of the run's wall time in contact (broad phase, barrier, CCD).
     pub share: f64,
+    /// Pairs between body primitives (self-contact, body–body) examined per evaluation.
+    pub body_pairs_per_evaluation: f64,
+    /// Their broad phase, ns per pair examined.
+    pub ns_per_body_pair_broad: f64,
+    /// Their barrier (distances, derivatives within d̂), ns per pair examined.
+    pub ns_per_body_pair_barrier: f64,
+    /// Their CCD (broad phase over swept boxes included), ns per pair tested.
+    pub ns_per_body_pair_ccd: f64,
 }
 
 /// What the sparse Cholesky preconditioner cost in the first run of a size.
@@ -208,6 +216,7 @@ fn contact_report(sim: &Simulation, seconds: f64) -> Option<ContactReport> {
     let surface = crate::contact::surface::ContactSurface::from_mesh(&sim.body.mesh);
     let primitives = surface.vertices.len().max(1) as f64;
     let examined = costs.pairs_examined.max(1) as f64;
+    let body_examined = costs.body_pairs_examined.max(1) as f64;
     Some(ContactReport {
         active_pairs: contact.active_pairs(),
         ns_per_pair_barrier: (costs.broad_seconds + costs.barrier_seconds) / examined * 1e9,
@@ -215,6 +224,11 @@ fn contact_report(sim: &Simulation, seconds: f64) -> Option<ContactReport> {
         ns_per_primitive_ccd: costs.ccd_seconds / (costs.ccd_calls.max(1) as f64 * primitives)
             * 1e9,
         share: (costs.broad_seconds + costs.barrier_seconds + costs.ccd_seconds) / seconds,
+        body_pairs_per_evaluation: costs.body_pairs_examined as f64
+            / costs.evaluations.max(1) as f64,
+        ns_per_body_pair_broad: costs.body_broad_seconds / body_examined * 1e9,
+        ns_per_body_pair_barrier: costs.body_barrier_seconds / body_examined * 1e9,
+        ns_per_body_pair_ccd: costs.body_ccd_seconds / costs.body_ccd_pairs.max(1) as f64 * 1e9,
     })
 }
 
@@ -447,6 +461,13 @@ impl BenchReport {
                     c.ns_per_pair_broad,
                     c.ns_per_primitive_ccd,
                     100.0 * c.share
+                ));
+                s.push_str(&format!(
+                    "     body pairs (self-contact): {:.0} examined per evaluation, broad phase {:.0} ns/pair, barrier {:.0} ns/pair, CCD {:.0} ns/pair\n",
+                    c.body_pairs_per_evaluation,
+                    c.ns_per_body_pair_broad,
+                    c.ns_per_body_pair_barrier,
+                    c.ns_per_body_pair_ccd
                 ));
             }
         }

@@ -61,6 +61,8 @@ pub struct ContactCosts {
     pub ccd_seconds: f64,
     /// CCD bound computations (each over every primitive pair in reach).
     pub ccd_calls: usize,
+    /// Evaluations of the term.
+    pub evaluations: usize,
     /// Of the above, the part for pairs between body primitives (body–body and self-contact):
     /// broad-phase seconds, barrier seconds, pairs examined, CCD seconds and CCD pairs tested.
     pub body_broad_seconds: f64,
@@ -587,6 +589,7 @@ impl Term for ContactTerm {
         self.costs.broad_seconds += broad_seconds;
         self.costs.barrier_seconds += seconds - broad_seconds;
         self.costs.pairs_examined += examined;
+        self.costs.evaluations += 1;
         if let Some(found) = body {
             self.costs.body_broad_seconds += found.broad_seconds;
             self.costs.body_barrier_seconds += found.seconds - found.broad_seconds;

@@ -332,13 +332,13 @@ pub(crate) fn orient_sign(a: &Vec3, b: &Vec3, c: &Vec3, d: &Vec3) -> i8 {
     }
 }
 
-/// Whether segment pq meets triangle abc (closed: touching counts). p and q strictly on one side
-/// of the triangle's plane miss it; otherwise the line through p and q passes the triangle's
-/// three edges on the same side (or on one of them). A segment in the triangle's plane (as far
-/// as floating point can tell) is left to the distance tests.
+/// Whether segment pq crosses triangle abc for certain: p and q strictly on opposite sides of
+/// the triangle's plane, and the line through them strictly inside the triangle's three edges
+/// (each sign exact, see [`orient_sign`]). Touching and configurations floating point cannot
+/// decide (a segment in the triangle's plane) are left to the distance tests.
 pub(crate) fn segment_crosses_triangle(p: &Vec3, q: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> bool {
     let (sp, sq) = (orient_sign(a, b, c, p), orient_sign(a, b, c, q));
-    if sp * sq > 0 || (sp == 0 && sq == 0) {
+    if sp * sq >= 0 {
         return false;
     }
     let s = [
@@ -346,5 +346,5 @@ pub(crate) fn segment_crosses_triangle(p: &Vec3, q: &Vec3, a: &Vec3, b: &Vec3, c
         orient_sign(p, q, b, c),
         orient_sign(p, q, c, a),
     ];
-    s.iter().all(|&v| v >= 0) || s.iter().all(|&v| v <= 0)
+    s[0] != 0 && s[0] == s[1] && s[1] == s[2]
 }
