@@ -180,7 +180,10 @@ fn two_cubes_thrown_at_each_other_never_interpenetrate_bounce_apart_and_keep_mom
     }
     assert!(touched > 0, "they never met");
     let p1 = momentum(&sim.state);
-    assert!((p1 - p0).norm() <= 1e-10 * p0.norm(), "momentum {p0} → {p1}");
+    assert!(
+        (p1 - p0).norm() <= 1e-10 * p0.norm(),
+        "momentum {p0} → {p1}"
+    );
     // They came together at `approach` and leave, more slowly (backward Euler dissipates).
     let leave = -closing(&sim.state);
     eprintln!(

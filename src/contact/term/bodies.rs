@@ -112,16 +112,19 @@ impl ContactTerm {
         let candidates = self.body_candidates(x, x, hold);
         let broad_seconds = broad.elapsed().as_secs_f64();
         let dhat = self.dhat;
-        let found: Vec<(f64, Option<Pair>)> = candidates
+        // Distances first (most candidates are neighbours far beyond d̂), derivatives only for
+        // the few within it: a `Pair` is 2 kB, too big to carry for every candidate.
+        let distances: Vec<f64> = candidates.par_iter().map(|c| c.distance(x)).collect();
+        let within: Vec<usize> = (0..candidates.len())
+            .filter(|&k| distances[k] < dhat)
+            .collect();
+        let pairs: Vec<Pair> = within
             .par_iter()
-            .map(|c| {
-                let d = c.distance(x);
-                if d >= dhat {
-                    return (d, None);
-                }
+            .map(|&k| {
+                let (c, d) = (&candidates[k], distances[k]);
                 let [a, b, cc, dd] = c.vertices.map(|v| x[v]);
                 let slots = c.vertices.map(Some);
-                let p = if c.is_edge_edge() {
+                if c.is_edge_edge() {
                     let rest = c.vertices.map(|v| self.rest[v]);
                     let eps_x =
                         edge_edge_mollifier_threshold(&rest[0], &rest[1], &rest[2], &rest[3]);
@@ -138,23 +141,20 @@ impl ContactTerm {
                         &point_triangle_distance_derivatives(&a, &b, &cc, &dd),
                         dhat,
                     )
-                };
-                (d, Some(p))
+                }
             })
             .collect();
         let mut near = Vec::new();
         let mut active = Vec::new();
-        let mut pairs = Vec::new();
-        let mut min_gap = f64::INFINITY;
-        for (c, (d, p)) in candidates.iter().zip(found) {
+        for (c, &d) in candidates.iter().zip(&distances) {
             if d < hold * hold {
                 c.couplings(&mut near);
             }
-            if let Some(p) = p {
-                c.couplings(&mut active);
-                min_gap = min_gap.min(d.sqrt());
-                pairs.push(p);
-            }
+        }
+        let mut min_gap = f64::INFINITY;
+        for &k in &within {
+            candidates[k].couplings(&mut active);
+            min_gap = min_gap.min(distances[k].sqrt());
         }
         normalize(&mut near);
         normalize(&mut active);
