@@ -178,7 +178,11 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
             stats.relative_residual,
             stats.residual,
             stats.min_j,
-            if stats.converged { "" } else { "  NOT CONVERGED" }
+            if stats.converged {
+                ""
+            } else {
+                "  NOT CONVERGED"
+            }
         );
         display.frame_done(&FrameReport {
             frame: stats.frame,

@@ -1,13 +1,17 @@
-//! Contact as a term of the incremental potential: the IPC barrier between the body's surface and
-//! rigid obstacles, `B(x) = κ Σₖ mₖ b(dₖ(x))` over the pairs closer than d̂ (see [`super`]).
+//! Contact as a term of the incremental potential: the IPC barrier between the bodies' surface
+//! and rigid obstacles, between bodies, and of a body with itself,
+//! `B(x) = κ Σₖ mₖ b(dₖ(x))` over the pairs closer than d̂ (see [`super`]), plus lagged friction
+//! ([`super::friction`]) on the same pairs.
 //!
-//! Obstacles sit where their motion puts them at the end of the step ([`ContactTerm::begin_step`]);
-//! only body vertices are unknowns, so every pair's Hessian lives on one body vertex, edge or
-//! face, inside the mesh's own adjacency: obstacle contact never changes the matrix pattern.
-//! Each pair's Hessian over its body DOFs is projected to PSD. [`ContactTerm::max_step`] is the
-//! CCD bound the line search starts from, so no accepted iterate passes through an obstacle.
-//!
-//! Friction (lagged, [`super::friction`]) and body–body and self-contact are not wired yet.
+//! Every body lives in one mesh (disjoint components, [`ContactSetup::vertex_body`]), so the
+//! term sees one surface. Obstacles sit where their motion puts them at the end of the step
+//! ([`ContactTerm::begin_step`]); their pairs' Hessians live on one body vertex, edge or face,
+//! inside the mesh's own adjacency. Pairs between body primitives ([`bodies`]: between two
+//! bodies always, inside one body when `self_contact`, never two primitives sharing a vertex)
+//! couple vertices the mesh does not: their blocks are held in the pattern as a superset
+//! ([`held`]), so the pattern changes rarely. Each pair's Hessian is projected to PSD.
+//! [`ContactTerm::max_step`] is the CCD bound the line search starts from, over obstacle and body
+//! pairs alike, so no accepted iterate passes through an obstacle, another body or itself.
 
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
@@ -34,7 +38,9 @@ use crate::integrator::{HessianShape, StepContext, Term};
 use crate::linear::sparse::BlockCsr;
 use crate::math::{Mat3, Vec3};
 
+mod bodies;
 mod friction;
+mod held;
 mod motion;
 
 use friction::FrictionLag;
@@ -55,6 +61,19 @@ pub struct ContactCosts {
     pub ccd_seconds: f64,
     /// CCD bound computations (each over every primitive pair in reach).
     pub ccd_calls: usize,
+    /// Evaluations of the term.
+    pub evaluations: usize,
+    /// Of the above, the part for pairs between body primitives (body–body and self-contact):
+    /// broad-phase seconds, barrier seconds, pairs examined, CCD seconds and CCD pairs tested.
+    pub body_broad_seconds: f64,
+    /// See [`ContactCosts::body_broad_seconds`].
+    pub body_barrier_seconds: f64,
+    /// See [`ContactCosts::body_broad_seconds`].
+    pub body_pairs_examined: usize,
+    /// See [`ContactCosts::body_broad_seconds`] (broad phase over swept boxes included).
+    pub body_ccd_seconds: f64,
+    /// See [`ContactCosts::body_broad_seconds`].
+    pub body_ccd_pairs: usize,
 }
 
 /// The contact term's state that carries over from one step to the next (see
@@ -88,10 +107,16 @@ struct Placed {
     sphere: Option<(Vec3, f64)>,
 }
 
-/// The barrier term between one body and the scene's rigid obstacles.
+/// The barrier term between the bodies, themselves and the scene's rigid obstacles.
 pub struct ContactTerm {
     setup: ContactSetup,
     surface: ContactSurface,
+    /// Whether any pair between body primitives can count (several bodies, or self-contact).
+    body_pairs: bool,
+    /// The body–body and self-contact blocks held in the matrix pattern.
+    held: held::HeldBlocks,
+    /// The blocks of the lagged body friction pairs (sorted, unique).
+    friction_blocks: Vec<(u32, u32)>,
     placed: Vec<Placed>,
     /// d̂, squared (m²).
     dhat: f64,
@@ -116,8 +141,9 @@ pub struct ContactTerm {
     /// The body's rest positions.
     rest: Vec<Vec3>,
     costs: ContactCosts,
-    /// CCD seconds and calls (`max_step` takes `&self`).
-    ccd_costs: std::sync::Mutex<(f64, usize)>,
+    /// CCD seconds and calls, and of those body pairs' seconds and pairs tested (`max_step`
+    /// takes `&self`).
+    ccd_costs: std::sync::Mutex<(f64, usize, f64, usize)>,
     /// Ramp factors of the obstacles: at the step's start, now, and where the step ends.
     ramp_start: Vec<f64>,
     ramp_now: Vec<f64>,
@@ -125,10 +151,13 @@ pub struct ContactTerm {
 }
 
 impl ContactTerm {
-    /// The term for `body`'s surface (rest positions `rest`, vertex masses `masses`) against
-    /// `setup`'s obstacles.
+    /// The term for the surface of `mesh` (every body; rest positions, vertex masses `masses`)
+    /// against `setup`'s obstacles, between its bodies and (with `self_contact`) inside each.
     pub fn new(setup: ContactSetup, mesh: &crate::mesh::TetMesh, masses: &[f64]) -> Self {
         let surface = ContactSurface::from_mesh(mesh);
+        let first = surface.vertices.first().map_or(0, |&v| setup.body_of(v));
+        let several = surface.vertices.iter().any(|&v| setup.body_of(v) != first);
+        let body_pairs = setup.params.self_contact || several;
         let (lo, hi) = mesh.bounding_box();
         let bbox_diagonal = (hi - lo).norm();
         let dhat_m = setup.params.distance.unwrap_or(1e-3 * bbox_diagonal);
@@ -138,6 +167,9 @@ impl ContactTerm {
         let mut term = ContactTerm {
             setup,
             surface,
+            body_pairs,
+            held: held::HeldBlocks::default(),
+            friction_blocks: Vec::new(),
             placed: Vec::new(),
             dhat,
             kappa,
@@ -157,7 +189,7 @@ impl ContactTerm {
             barrier_pairs: 0,
             rest: mesh.positions.clone(),
             costs: ContactCosts::default(),
-            ccd_costs: std::sync::Mutex::new((0.0, 0)),
+            ccd_costs: std::sync::Mutex::new((0.0, 0, 0.0, 0)),
             ramp_start: Vec::new(),
             ramp_now: Vec::new(),
             ramp_target: Vec::new(),
@@ -200,7 +232,15 @@ impl ContactTerm {
         self.ramp_target.clone_from(&self.ramp_now);
         self.friction_eps = 1e-3 * self.bbox_diagonal * h;
         self.lag_friction(xn, &start);
+        self.lag_body_friction(xn);
         self.lagged.copy_from_slice(xn);
+        // The blocks of the body pairs near now (and of friction's) held for the whole step.
+        if self.body_pairs {
+            let mut near = self.collect_body_pairs(xn).near;
+            near.extend_from_slice(&self.friction_blocks);
+            held::normalize(&mut near);
+            self.held.renew(&near);
+        }
         // The step's solves start with the obstacles where they were: see `advance_obstacles`.
         self.place_at(&self.ramp_start.clone());
         if let Some(d) = self.min_distance {
@@ -216,9 +256,11 @@ impl ContactTerm {
         }
     }
 
-    /// Why the body at x passes through an obstacle (naming the obstacle and a body vertex),
-    /// or None: a vertex on the wrong side of a plane or inside a sphere or box, or a surface
-    /// edge crossing an obstacle triangle.
+    /// Why the bodies at x pass through an obstacle (naming the obstacle and a body vertex),
+    /// each other or themselves (naming the bodies and an element of each), or None: a vertex on
+    /// the wrong side of a plane or inside a sphere or box, a surface edge crossing an obstacle
+    /// triangle, or a surface edge crossing a face of the mesh's surface it shares no vertex with
+    /// (inside one body only with `self_contact`).
     pub fn intersection(&self, x: &[Vec3]) -> Option<String> {
         for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
             let inside = |v: usize| -> bool {
@@ -267,7 +309,12 @@ impl ContactTerm {
                 }
             }
         }
-        None
+        self.body_intersection(x)
+    }
+
+    /// The diagonal of the body's rest bounding box, m (the length IPC's tolerances scale with).
+    pub fn bounding_box_diagonal(&self) -> f64 {
+        self.bbox_diagonal
     }
 
     /// Active pairs at the last evaluation.
@@ -308,8 +355,13 @@ impl ContactTerm {
         &self.forces
     }
 
-    /// The pairs within d̂ at x, with their derivatives (κ not applied), in a fixed order.
-    fn collect_pairs(&self, x: &[Vec3]) -> (Vec<Pair>, Option<f64>, usize, f64) {
+    /// The pairs within d̂ at x, with their derivatives (κ not applied), in a fixed order:
+    /// obstacle pairs, then body pairs (whose findings come back in `body`).
+    fn collect_pairs(
+        &self,
+        x: &[Vec3],
+        body: &mut Option<bodies::BodyFound>,
+    ) -> (Vec<Pair>, Option<f64>, usize, f64) {
         let mut examined = 0;
         let mut broad_seconds = 0.0;
         let dhat = self.dhat;
@@ -430,6 +482,15 @@ impl ContactTerm {
                 }
             }
         }
+        if self.body_pairs {
+            let mut found = self.collect_body_pairs(x);
+            examined += found.examined;
+            broad_seconds += found.broad_seconds;
+            // Only gaps under d̂ count: a body's own surface always has neighbours close by.
+            min_d = min_d.min(found.min_gap);
+            pairs.append(&mut found.pairs);
+            *body = Some(found);
+        }
         (
             pairs,
             min_d.is_finite().then_some(min_d),
@@ -446,11 +507,12 @@ impl ContactTerm {
     }
 
     /// The largest fraction t ∈ (0, 1] of the move from x to x + dx that passes through no
-    /// obstacle (conservative CCD; 1 when nothing is in the way).
+    /// obstacle, other body or (with `self_contact`) the body itself (conservative CCD; 1 when
+    /// nothing is in the way).
     pub fn max_step(&self, x: &[Vec3], dx: &[Vec3]) -> f64 {
         let started = std::time::Instant::now();
         let end: Vec<Vec3> = x.iter().zip(dx).map(|(x, d)| x + d).collect();
-        let t = self
+        let obstacles = self
             .setup
             .obstacles
             .iter()
@@ -467,10 +529,18 @@ impl ContactTerm {
                 )
             })
             .fold(1.0, f64::min);
+        let body_started = std::time::Instant::now();
+        let (bodies, tested) = if self.body_pairs {
+            self.body_time_of_impact(x, &end)
+        } else {
+            (1.0, 0)
+        };
         let mut costs = self.ccd_costs.lock().expect("not poisoned");
         costs.0 += started.elapsed().as_secs_f64();
         costs.1 += 1;
-        t
+        costs.2 += body_started.elapsed().as_secs_f64();
+        costs.3 += tested;
+        obstacles.min(bodies)
     }
 
     /// Where contact's time went so far (for `tetsim bench`).
@@ -479,6 +549,8 @@ impl ContactTerm {
         ContactCosts {
             ccd_seconds: ccd.0,
             ccd_calls: ccd.1,
+            body_ccd_seconds: ccd.2,
+            body_ccd_pairs: ccd.3,
             ..self.costs
         }
     }
@@ -545,10 +617,22 @@ impl Term for ContactTerm {
         _partials: &mut [f64],
     ) -> f64 {
         let started = std::time::Instant::now();
-        let (pairs, min_d, examined, broad_seconds) = self.collect_pairs(x);
+        let mut body = None;
+        let (pairs, min_d, examined, broad_seconds) = self.collect_pairs(x, &mut body);
+        let seconds = started.elapsed().as_secs_f64();
         self.costs.broad_seconds += broad_seconds;
-        self.costs.barrier_seconds += started.elapsed().as_secs_f64() - broad_seconds;
+        self.costs.barrier_seconds += seconds - broad_seconds;
         self.costs.pairs_examined += examined;
+        self.costs.evaluations += 1;
+        if let Some(found) = body {
+            self.costs.body_broad_seconds += found.broad_seconds;
+            self.costs.body_barrier_seconds += found.seconds - found.broad_seconds;
+            self.costs.body_pairs_examined += found.examined;
+            // An active pair whose blocks are not held: hold every pair near now.
+            if !self.held.covers(&found.active) {
+                self.held.grow(&found.near);
+            }
+        }
         self.pairs = pairs;
         self.min_distance = min_d;
         let barrier_pairs = self.pairs.len();
@@ -618,6 +702,14 @@ impl Term for ContactTerm {
         }
     }
 
+    fn extra_blocks(&self, out: &mut Vec<(u32, u32)>) {
+        out.extend_from_slice(self.held.blocks());
+    }
+
+    fn pattern_generation(&self) -> u64 {
+        self.held.generation()
+    }
+
     fn add_to_matrix(&mut self, _ctx: &StepContext<'_>, a: &mut BlockCsr) {
         for pair in &self.pairs {
             let h = if self.exact {
@@ -631,7 +723,7 @@ impl Term for ContactTerm {
                     let at = a
                         .pattern
                         .find(i, j)
-                        .expect("obstacle pairs couple vertices of one face or edge");
+                        .expect("obstacle pairs couple one face or edge, body pairs are held");
                     a.values[at] += block(h, k, l);
                 }
             }
@@ -653,3 +745,6 @@ fn block(h: &SMatrix<f64, 12, 12>, k: usize, l: usize) -> Mat3 {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod body_tests;

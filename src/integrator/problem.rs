@@ -214,17 +214,31 @@ impl IncrementalPotential {
         self.diagonal = diagonal;
     }
 
-    /// Rebuild the Hessian's pattern when an extra term's blocks changed.
+    /// The terms after the three built-in ones, read-only (see [`Self::later_terms`]).
+    fn later_terms_ref(&self) -> impl Iterator<Item = &dyn Term> {
+        self.contact
+            .iter()
+            .map(|t| t as &dyn Term)
+            .chain(self.extra.iter().map(|t| &**t as &dyn Term))
+    }
+
+    /// Rebuild the Hessian's pattern when a later term's blocks changed (contact pairs between
+    /// body vertices, extra terms).
     fn refresh_pattern(&mut self) {
-        let generations: Vec<u64> = self.extra.iter().map(|t| t.pattern_generation()).collect();
+        let generations: Vec<u64> = self
+            .later_terms_ref()
+            .map(|t| t.pattern_generation())
+            .collect();
         if self.pattern.is_some() && generations == self.pattern_generations {
             return;
         }
         let base = self.elasticity.pattern();
-        self.scratch_pairs.clear();
-        for term in &self.extra {
-            term.extra_blocks(&mut self.scratch_pairs);
+        let mut scratch = std::mem::take(&mut self.scratch_pairs);
+        scratch.clear();
+        for term in self.later_terms_ref() {
+            term.extra_blocks(&mut scratch);
         }
+        self.scratch_pairs = scratch;
         let pattern = if self.scratch_pairs.is_empty() {
             base.clone()
         } else {

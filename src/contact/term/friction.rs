@@ -12,6 +12,17 @@ pub(super) struct FrictionLag {
     moved: [Vec3; 4],
 }
 
+impl FrictionLag {
+    /// A pair between body primitives: every slot a body vertex.
+    pub(super) fn between_bodies(pair: FrictionPair<12>, c: super::bodies::BodyPair) -> Self {
+        FrictionLag {
+            pair,
+            slots: c.vertices.map(Some),
+            moved: [Vec3::zeros(); 4],
+        }
+    }
+}
+
 impl ContactTerm {
     /// The friction pairs at `xn` against the obstacles as they were (`start`), with each
     /// obstacle point's move to where it is now.
