@@ -162,13 +162,16 @@ impl Simulation {
         &self.bodies
     }
 
-    /// Turn contact on: rigid obstacles and the `[contact]` settings (SPEC §11). Refused when the
-    /// initial state passes through an obstacle (the message names it and a vertex).
+    /// Turn contact on: rigid obstacles, the bodies and the `[contact]` settings (SPEC §11).
+    /// Refused when the initial state passes through an obstacle (the message names it and a
+    /// vertex), two bodies overlap, or a body through itself (the message names both bodies and
+    /// an element of each).
     pub fn with_contact(mut self, setup: crate::contact::ContactSetup) -> Result<Self> {
         let term =
             crate::contact::term::ContactTerm::new(setup, &self.body.mesh, self.body.masses());
         if let Some(message) = term.intersection(&self.state.x) {
-            return Err(Error::parameter("obstacle", message));
+            // "invalid contact: the initial state …": obstacles and bodies alike.
+            return Err(Error::parameter("contact", message));
         }
         self.newton.potential_mut().contact = Some(term);
         Ok(self)
