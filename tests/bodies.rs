@@ -5,6 +5,7 @@
 use std::path::Path;
 use std::process::Command;
 
+use tetsim::contact::distance::segment_crosses_triangle;
 use tetsim::io::{FieldData, read_vtu_frame};
 use tetsim::{Scene, Simulation, Vec3};
 
@@ -199,23 +200,6 @@ fn bad_body_entries_are_refused_at_their_line() {
             "expected line {line}: {error}"
         );
     }
-}
-
-/// Whether segment pq passes through the inside of triangle abc: its ends on opposite sides of
-/// the plane by more than rounding (an edge lying in the plane of a flat surface's face is not a
-/// crossing, whatever the signs of its rounding say), the crossing point inside the triangle.
-fn segment_crosses_triangle(p: &Vec3, q: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> bool {
-    let n = (b - a).cross(&(c - a));
-    let scale = (b - a).norm().max((c - a).norm()).max((q - p).norm());
-    let tolerance = 1e-9 * n.norm() * scale;
-    let (dp, dq) = (n.dot(&(p - a)), n.dot(&(q - a)));
-    if dp.abs() <= tolerance || dq.abs() <= tolerance || dp * dq > 0.0 {
-        return false;
-    }
-    let t = dp / (dp - dq);
-    let x = p + t * (q - p);
-    let inside = |u: &Vec3, v: &Vec3| n.dot(&(v - u).cross(&(x - u))) > 0.0;
-    inside(a, b) && inside(b, c) && inside(c, a)
 }
 
 /// A surface edge through a surface face it does not share a vertex with, as (edge, face), in

@@ -3,32 +3,12 @@
 //! linear momentum.
 
 use tetsim::boundary::Boundary;
+use tetsim::contact::distance::orient_sign;
 use tetsim::contact::surface::ContactSurface;
 use tetsim::contact::{ContactParams, ContactSetup};
 use tetsim::integrator::SolverParams;
 use tetsim::mesh::generate::box_mesh;
 use tetsim::{ElasticBody, Lame, Model, ModelKind, Simulation, State, TetMesh, Vec3};
-
-/// Sign of orient3d(a, b, c, d), or 0 when floating point cannot tell (Shewchuk's static error
-/// bound): outside the bound the sign is exact, so "no crossing" below is a proof.
-fn orient(a: &Vec3, b: &Vec3, c: &Vec3, d: &Vec3) -> i8 {
-    let (ad, bd, cd) = (a - d, b - d, c - d);
-    let det = ad.x * (bd.y * cd.z - bd.z * cd.y)
-        + bd.x * (cd.y * ad.z - cd.z * ad.y)
-        + cd.x * (ad.y * bd.z - ad.z * bd.y);
-    let permanent = ((bd.y * cd.z).abs() + (bd.z * cd.y).abs()) * ad.x.abs()
-        + ((cd.y * ad.z).abs() + (cd.z * ad.y).abs()) * bd.x.abs()
-        + ((ad.y * bd.z).abs() + (ad.z * bd.y).abs()) * cd.x.abs();
-    let eps = f64::EPSILON / 2.0;
-    let bound = (7.0 + 56.0 * eps) * eps * permanent;
-    if det > bound {
-        1
-    } else if det < -bound {
-        -1
-    } else {
-        0
-    }
-}
 
 /// Whether segment pq may meet triangle abc: true for a crossing, a touch, or anything
 /// floating point cannot rule out (a coplanar segment included).
@@ -42,11 +22,15 @@ fn may_meet(p: &Vec3, q: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> bool {
     if (0..3).any(|i| s1[i] < t0[i] || t1[i] < s0[i]) {
         return false;
     }
-    let (sp, sq) = (orient(a, b, c, p), orient(a, b, c, q));
+    let (sp, sq) = (orient_sign(a, b, c, p), orient_sign(a, b, c, q));
     if sp * sq > 0 {
         return false;
     }
-    let s = [orient(p, q, a, b), orient(p, q, b, c), orient(p, q, c, a)];
+    let s = [
+        orient_sign(p, q, a, b),
+        orient_sign(p, q, b, c),
+        orient_sign(p, q, c, a),
+    ];
     s.iter().all(|&v| v >= 0) || s.iter().all(|&v| v <= 0)
 }
 

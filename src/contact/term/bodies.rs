@@ -12,7 +12,9 @@
 use super::held::normalize;
 use super::*;
 use crate::contact::broad::{Bvh, self_candidates};
-use crate::contact::distance::{edge_edge_distance, point_triangle_distance};
+use crate::contact::distance::{
+    edge_edge_distance, point_triangle_distance, segment_crosses_triangle,
+};
 
 /// A pair of body surface primitives: point–triangle `[p, t₀, t₁, t₂]` (`split` 1) or edge–edge
 /// `[a₀, a₁, b₀, b₁]` (`split` 2), by mesh vertex ids.
@@ -308,43 +310,4 @@ impl ContactTerm {
             )
         }
     }
-}
-
-/// The sign (1, −1) of the orientation of d against the plane through a, b, c, or 0 when it is 0
-/// *or too close to 0 to tell* in floating point (Shewchuk's static error bound of orient3d:
-/// outside it the sign is exact).
-pub(crate) fn orient_sign(a: &Vec3, b: &Vec3, c: &Vec3, d: &Vec3) -> i8 {
-    let (ad, bd, cd) = (a - d, b - d, c - d);
-    let det = ad.x * (bd.y * cd.z - bd.z * cd.y)
-        + bd.x * (cd.y * ad.z - cd.z * ad.y)
-        + cd.x * (ad.y * bd.z - ad.z * bd.y);
-    let permanent = ((bd.y * cd.z).abs() + (bd.z * cd.y).abs()) * ad.x.abs()
-        + ((cd.y * ad.z).abs() + (cd.z * ad.y).abs()) * bd.x.abs()
-        + ((ad.y * bd.z).abs() + (ad.z * bd.y).abs()) * cd.x.abs();
-    let eps = f64::EPSILON / 2.0;
-    let bound = (7.0 + 56.0 * eps) * eps * permanent;
-    if det > bound {
-        1
-    } else if det < -bound {
-        -1
-    } else {
-        0
-    }
-}
-
-/// Whether segment pq crosses triangle abc for certain: p and q strictly on opposite sides of
-/// the triangle's plane, and the line through them strictly inside the triangle's three edges
-/// (each sign exact, see [`orient_sign`]). Touching and configurations floating point cannot
-/// decide (a segment in the triangle's plane) are left to the distance tests.
-pub(crate) fn segment_crosses_triangle(p: &Vec3, q: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> bool {
-    let (sp, sq) = (orient_sign(a, b, c, p), orient_sign(a, b, c, q));
-    if sp * sq >= 0 {
-        return false;
-    }
-    let s = [
-        orient_sign(p, q, a, b),
-        orient_sign(p, q, b, c),
-        orient_sign(p, q, c, a),
-    ];
-    s[0] != 0 && s[0] == s[1] && s[1] == s[2]
 }
