@@ -171,6 +171,9 @@ pub struct ContactReport {
     pub ns_per_body_pair_barrier: f64,
     /// Their CCD (broad phase over swept boxes included), ns per pair tested.
     pub ns_per_body_pair_ccd: f64,
+    /// Searches of the surface's tree for body pairs per frame (evaluations and CCD bounds
+    /// otherwise reuse the list kept from the last search).
+    pub body_searches_per_frame: f64,
 }
 
 /// What the sparse Cholesky preconditioner cost in the first run of a size.
@@ -409,6 +412,7 @@ fn contact_report(
         ns_per_body_pair_broad: costs.body_broad_seconds / body_examined * 1e9,
         ns_per_body_pair_barrier: costs.body_barrier_seconds / body_examined * 1e9,
         ns_per_body_pair_ccd: costs.body_ccd_seconds / costs.body_ccd_pairs.max(1) as f64 * 1e9,
+        body_searches_per_frame: costs.body_searches as f64 / per,
     })
 }
 
@@ -667,8 +671,9 @@ impl BenchReport {
                     c.peak_mb
                 ));
                 s.push_str(&format!(
-                    "     body pairs (self-contact): {:.0} examined per evaluation, broad phase {:.0} ns/pair, barrier {:.0} ns/pair, CCD {:.0} ns/pair\n",
+                    "     body pairs (self-contact): {:.0} examined per evaluation, {:.1} tree searches per frame, broad phase {:.0} ns/pair, barrier {:.0} ns/pair, CCD {:.0} ns/pair\n",
                     c.body_pairs_per_evaluation,
+                    c.body_searches_per_frame,
                     c.ns_per_body_pair_broad,
                     c.ns_per_body_pair_barrier,
                     c.ns_per_body_pair_ccd

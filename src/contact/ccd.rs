@@ -94,6 +94,11 @@ fn additive_ccd<const N: usize>(
     let target = (1.0 - c) * g0;
     let mut t = 0.0;
     let mut step = c * g0 / lp;
+    if step >= t_max {
+        // The first step covers the whole interval (the loop would return t_max after one more
+        // distance): most pairs of a slowly moving surface end here.
+        return t_max;
+    }
     for _ in 0..params.max_iterations {
         let g = gap(t + step);
         if t > 0.0 && g < target {

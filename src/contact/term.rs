@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use super::ContactSetup;
 use super::barrier::{
     barrier_derivatives, edge_edge_mollified_barrier, edge_edge_mollifier_threshold,
-    min_barrier_stiffness, project_psd,
+    initial_barrier_stiffness, min_barrier_stiffness, project_psd,
 };
 use super::broad::cross_candidates;
 use super::ccd::{
@@ -39,6 +39,7 @@ use crate::linear::sparse::BlockCsr;
 use crate::math::{Mat3, Vec3};
 
 mod bodies;
+mod candidate_cache;
 mod friction;
 mod held;
 mod motion;
@@ -74,6 +75,8 @@ pub struct ContactCosts {
     pub body_ccd_seconds: f64,
     /// See [`ContactCosts::body_broad_seconds`].
     pub body_ccd_pairs: usize,
+    /// Searches of the surface's tree for body pairs (the rest reuse a kept list).
+    pub body_searches: usize,
 }
 
 /// The contact term's state that carries over from one step to the next (see
@@ -121,7 +124,12 @@ pub struct ContactTerm {
     /// d̂, squared (m²).
     dhat: f64,
     kappa: f64,
+    /// κ_min of IPC (from the mass and d̂), κ_max = 100 κ_min.
+    kappa_min: f64,
     kappa_max: f64,
+    /// Whether κ was balanced against the other forces in this step already
+    /// ([`ContactTerm::balance_stiffness`]).
+    balanced: bool,
     bbox_diagonal: f64,
     pairs: Vec<Pair>,
     exact: bool,
@@ -141,6 +149,10 @@ pub struct ContactTerm {
     /// The body's rest positions.
     rest: Vec<Vec3>,
     costs: ContactCosts,
+    /// The body pair candidates kept between evaluations, and how far (m) a surface vertex may
+    /// stray before they are searched again (see [`candidate_cache`]).
+    body_cache: std::sync::Mutex<candidate_cache::CandidateCache>,
+    candidate_margin: f64,
     /// CCD seconds and calls, and of those body pairs' seconds and pairs tested (`max_step`
     /// takes `&self`).
     ccd_costs: std::sync::Mutex<(f64, usize, f64, usize)>,
@@ -173,7 +185,9 @@ impl ContactTerm {
             placed: Vec::new(),
             dhat,
             kappa,
+            kappa_min: kappa,
             kappa_max: 100.0 * kappa,
+            balanced: false,
             bbox_diagonal,
             pairs: Vec::new(),
             exact: false,
@@ -189,6 +203,8 @@ impl ContactTerm {
             barrier_pairs: 0,
             rest: mesh.positions.clone(),
             costs: ContactCosts::default(),
+            body_cache: std::sync::Mutex::new(candidate_cache::CandidateCache::new()),
+            candidate_margin: 2.0 * dhat_m,
             ccd_costs: std::sync::Mutex::new((0.0, 0, 0.0, 0)),
             ramp_start: Vec::new(),
             ramp_now: Vec::new(),
@@ -231,6 +247,7 @@ impl ContactTerm {
         self.place(ramp_end);
         self.ramp_target.clone_from(&self.ramp_now);
         self.friction_eps = 1e-3 * self.bbox_diagonal * h;
+        self.balanced = false;
         self.lag_friction(xn, &start);
         self.lag_body_friction(xn);
         self.lagged.copy_from_slice(xn);
@@ -254,6 +271,56 @@ impl ContactTerm {
             );
             self.previous_min_distance = d2;
         }
+    }
+
+    /// IPC's initial stiffness, at the first evaluation of a step ([`initial_barrier_stiffness`]):
+    /// κ raised to the value whose barrier forces best balance the other forces of the step
+    /// (least squares over the free components), within [κ_min, 100 κ_min]; never lowered.
+    /// `total` is the evaluation's force (every term, masked to the free components, N).
+    /// Returns whether κ changed (the caller evaluates again).
+    ///
+    /// Without it a body that starts its step inside d̂ under a load (the beam resting on the
+    /// ground) meets a barrier too soft to carry it where it is: Newton asks its bottom to
+    /// pass through the ground, CCD cuts the whole step to a few per cent, and the frame takes
+    /// many iterations to walk the gap down to where the weak barrier holds (16 Newton
+    /// iterations against 7 with the balanced κ in `tetsim bench --contact`'s first frame).
+    pub fn balance_stiffness(&mut self, total: &[Vec3], free: &[Vec3]) -> bool {
+        if self.balanced {
+            return false;
+        }
+        self.balanced = true;
+        if self.barrier_pairs == 0 {
+            return false;
+        }
+        // The barrier's own forces (friction's belong with the rest), unscaled: −∇B.
+        let mut barrier = vec![Vec3::zeros(); total.len()];
+        for p in &self.pairs[..self.barrier_pairs] {
+            for k in 0..p.count {
+                barrier[p.vertices[k]] -= p.gradient.fixed_rows::<3>(3 * k) / self.kappa;
+            }
+        }
+        let grad_barrier: Vec<Vec3> = barrier
+            .iter()
+            .zip(free)
+            .map(|(b, m)| -b.component_mul(m))
+            .collect();
+        // ∇E = −(total − contact), the contact forces being κ·(−∇B) plus friction's.
+        let grad_energy: Vec<Vec3> = total
+            .iter()
+            .zip(&barrier)
+            .zip(free)
+            .map(|((t, b), m)| -(t - self.kappa * b).component_mul(m))
+            .collect();
+        let (kappa, _) = initial_barrier_stiffness(self.kappa_min, &grad_energy, &grad_barrier);
+        if kappa > self.kappa {
+            log::debug!(
+                "contact: barrier stiffness {:.3e} → {kappa:.3e} (balanced against the step's other forces)",
+                self.kappa
+            );
+            self.kappa = kappa;
+            return true;
+        }
+        false
     }
 
     /// Why the bodies at x pass through an obstacle (naming the obstacle and a body vertex),
@@ -551,6 +618,7 @@ impl ContactTerm {
             ccd_calls: ccd.1,
             body_ccd_seconds: ccd.2,
             body_ccd_pairs: ccd.3,
+            body_searches: self.body_cache.lock().expect("not poisoned").searches,
             ..self.costs
         }
     }

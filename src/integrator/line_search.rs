@@ -31,6 +31,9 @@ impl Newton {
         // Never past what continuous collision detection finds free (1 without contact).
         let mut alpha = self.potential.max_step(ctx, x, &self.dx);
         self.collision_limited = alpha < 1.0;
+        if self.collision_limited {
+            log::trace!("CCD limits the step to {alpha:.3e}");
+        }
 
         let mut best: Option<(f64, f64)> = None; // (merit, alpha)
         // With γ > 0, the largest step on which the undamped incremental potential met Armijo.

@@ -174,6 +174,12 @@ impl Newton {
             floor
         };
         let mut eval = self.evaluate(ctx, x, v);
+        // IPC's balanced barrier stiffness, once a step (see `ContactTerm::balance_stiffness`).
+        if let Some(contact) = &mut self.potential.contact
+            && contact.balance_stiffness(&self.rhs, ctx.free)
+        {
+            eval = self.evaluate(ctx, x, v);
+        }
         let first = eval.residual;
         let mut eta = FORCING_MAX;
         info.clamped_tets = self.linearization().clamped_tets();

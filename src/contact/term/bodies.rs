@@ -80,8 +80,25 @@ impl ContactTerm {
     }
 
     /// Candidate body pairs within `r` (m) over the move x0 → x1, by the body rules, in a fixed
-    /// order (point–triangle pairs, then edge–edge, each sorted).
+    /// order (point–triangle pairs, then edge–edge, each sorted), from the list kept between
+    /// evaluations ([`super::candidate_cache`]; the same pairs as [`Self::search_body_candidates`]).
     pub(super) fn body_candidates(&self, x0: &[Vec3], x1: &[Vec3], r: f64) -> Vec<BodyPair> {
+        if !self.body_pairs {
+            return Vec::new();
+        }
+        let mut cache = self.body_cache.lock().expect("not poisoned");
+        cache.candidates(
+            &self.surface.vertices,
+            x0,
+            x1,
+            r,
+            self.candidate_margin,
+            |a, b, r| self.search_body_candidates(a, b, r),
+        )
+    }
+
+    /// [`Self::body_candidates`] by a search of the surface's own tree.
+    pub(super) fn search_body_candidates(&self, x0: &[Vec3], x1: &[Vec3], r: f64) -> Vec<BodyPair> {
         if !self.body_pairs {
             return Vec::new();
         }
@@ -271,7 +288,7 @@ impl ContactTerm {
             ));
         }
         let touching = self
-            .body_candidates(x, x, 0.0)
+            .search_body_candidates(x, x, 0.0)
             .into_par_iter()
             .find_first(|c| c.distance(x) <= 0.0)?;
         let [a, b, c, d] = touching.vertices;

@@ -432,3 +432,45 @@ fn body_pairs_give_the_same_bits_on_one_and_two_threads() {
     assert!(one.4 > 0);
     assert_eq!(one, run(2));
 }
+
+/// The kept candidate list gives exactly a fresh search's candidates, static and swept, over a
+/// random walk of the vertices (small moves reuse it, large ones search again).
+#[test]
+fn kept_candidates_are_a_fresh_searchs() {
+    use rand::{RngExt, SeedableRng};
+    let (mesh, body) = stacked(0.004, 0.3, 0.02);
+    let term = ContactTerm::new(
+        setup(body, 0.01, 0.0, true),
+        &mesh,
+        &vec![1.0; mesh.positions.len()],
+    );
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let mut x = mesh.positions.clone();
+    let mut jiggle = |x: &[Vec3], size: f64| -> Vec<Vec3> {
+        x.iter()
+            .map(|p| p + size * Vec3::from_fn(|_, _| rng.random_range(-1.0..1.0)))
+            .collect()
+    };
+    for k in 0..40 {
+        let size = if k % 10 == 9 { 0.05 } else { 0.003 };
+        x = jiggle(&x, size);
+        let end = jiggle(&x, size);
+        for r in [0.0, 0.01, term.hold_radius()] {
+            assert_eq!(
+                term.body_candidates(&x, &x, r),
+                term.search_body_candidates(&x, &x, r),
+                "static, move {k}, r {r}"
+            );
+            assert_eq!(
+                term.body_candidates(&x, &end, r),
+                term.search_body_candidates(&x, &end, r),
+                "swept, move {k}, r {r}"
+            );
+        }
+    }
+    let searches = term.costs().body_searches;
+    assert!(
+        (2..=60).contains(&searches),
+        "the list was searched {searches} times for 240 queries"
+    );
+}

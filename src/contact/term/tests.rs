@@ -121,3 +121,88 @@ fn contact_term_derivatives_match_finite_differences_for_every_shape() {
         assert!(best_h < 1e-4, "{shape:?}: force → Hessian error {best_h:e}");
     }
 }
+
+/// IPC's balanced κ: a block inside d̂ of the ground under a downward load gets the κ whose
+/// barrier forces best balance the load (the least-squares κ, computed here directly), once a
+/// step and never lowered; a block beyond d̂ keeps κ.
+#[test]
+fn barrier_stiffness_is_balanced_against_the_load_once_a_step() {
+    let mesh = box_mesh(
+        Vec3::new(0.0, 2e-4, 0.0),
+        Vec3::new(0.2, 0.2002, 0.2),
+        [2, 2, 2],
+    );
+    let n = mesh.positions.len();
+    let setup = ContactSetup {
+        obstacles: vec![ObstacleSpec {
+            name: "ground".into(),
+            obstacle: Obstacle::new(
+                Shape::Plane {
+                    point: Vec3::zeros(),
+                    normal: Vec3::y(),
+                },
+                Motion::default(),
+            )
+            .unwrap(),
+            friction: None,
+            duration: None,
+        }],
+        params: crate::contact::ContactParams {
+            distance: Some(1e-3),
+            friction: 0.0,
+            self_contact: false,
+        },
+        ..Default::default()
+    };
+    let body = crate::elastic::ElasticBody::new(
+        mesh.clone(),
+        crate::Model::new(
+            crate::ModelKind::NeoHookean,
+            crate::Lame::from_young_poisson(1e5, 0.3),
+        ),
+        1000.0,
+    )
+    .unwrap();
+    let params = SolverParams::default();
+    let zeros = vec![Vec3::zeros(); n];
+    let free = vec![Vec3::repeat(1.0); n];
+    let ctx = StepContext {
+        body: &body,
+        kind: StepKind::Static,
+        f_ext: &zeros,
+        free: &free,
+        params: &params,
+    };
+    let x = &mesh.positions;
+    let mut term = ContactTerm::new(setup, &mesh, &vec![1.0; n]);
+    term.begin_step(x, 1.0, |_| 0.0, |_| 0.0);
+    let kappa_min = term.saved_state().kappa;
+    let mut barrier = vec![Vec3::zeros(); n];
+    term.evaluate(&ctx, x, &zeros, &mut barrier, &mut [0.0; 8]);
+    assert!(term.active_pairs() > 0);
+    // A load of 30 N down on every vertex, plus the barrier: the evaluation's total force.
+    let load = Vec3::new(0.0, -30.0, 0.0);
+    let total: Vec<Vec3> = barrier.iter().map(|b| b + load).collect();
+    assert!(term.balance_stiffness(&total, &free));
+    let kappa = term.saved_state().kappa;
+    // Least squares: κ* minimises ‖load + κ*·(barrier/κ)‖.
+    let unit: Vec<Vec3> = barrier.iter().map(|b| b / kappa_min).collect();
+    let dot: f64 = unit.iter().map(|u| u.dot(&load)).sum();
+    let norm: f64 = unit.iter().map(|u| u.norm_squared()).sum();
+    let expected = (-dot / norm).clamp(kappa_min, 100.0 * kappa_min);
+    assert!(kappa > kappa_min);
+    assert!(
+        (kappa - expected).abs() <= 1e-12 * expected,
+        "{kappa} vs {expected}"
+    );
+    // Once a step: a second call changes nothing, even under a larger load.
+    let heavier: Vec<Vec3> = barrier.iter().map(|b| b + 10.0 * load).collect();
+    assert!(!term.balance_stiffness(&heavier, &free));
+    assert_eq!(term.saved_state().kappa, kappa);
+    // The next step balances again but never lowers κ.
+    term.begin_step(x, 1.0, |_| 0.0, |_| 0.0);
+    term.evaluate(&ctx, x, &zeros, &mut vec![Vec3::zeros(); n], &mut [0.0; 8]);
+    let light: Vec<Vec3> = barrier.iter().map(|b| b + 1e-3 * load).collect();
+    assert!(!term.balance_stiffness(&light, &free));
+    assert_eq!(term.saved_state().kappa, kappa);
+}
