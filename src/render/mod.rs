@@ -8,7 +8,8 @@
 //!    fills the frame: every frame of a run uses the same camera, so frames line up.
 //! 3. [`render`] builds the triangles (crease-aware smooth normals, optional cut-away by a
 //!    [`Plane`] that exposes the cut faces of the tets), rasterises them into a supersampled
-//!    z-buffer, shades every sample (key and fill light, hemisphere ambient, wireframe edges),
+//!    z-buffer band of rows by band (so memory never holds the whole supersampled frame),
+//!    shades every sample (key and fill light, hemisphere ambient, wireframe edges),
 //!    draws a floor with a grid and a soft contact shadow behind the object, filters down to the
 //!    output size and draws the overlays: fixed-vertex markers, the colour bar with its label,
 //!    units and ticks, and a caption (frame, time). [`render_with_obstacles`] adds rigid

@@ -3,9 +3,15 @@
 //! and contact shadow, background gradient), the box filter down to the output size, and the
 //! overlays.
 //!
-//! Deterministic by construction: each band of rows is rasterised by one thread with the
-//! triangles in a fixed order (the nearer sample wins, the earlier triangle on a tie), and each
-//! output pixel is shaded from its own samples only.
+//! The picture is made in horizontal bands of output rows: each band's supersampled z-buffer is
+//! filled, shaded and filtered down into the output image, and its buffers are reused for the
+//! next band. Memory holds a band per thread, never the whole supersampled frame (an 800×600
+//! picture at 3×3 would need 35 MB for it).
+//!
+//! Deterministic by construction: each band is rasterised by one thread with the triangles in a
+//! fixed order (the nearer sample wins, the earlier triangle on a tie), and each output pixel is
+//! shaded from its own samples only, so neither the thread count nor the band height changes a
+//! byte.
 
 use rayon::prelude::*;
 
@@ -18,8 +24,9 @@ use super::text::{self, Align, INK, MARKER_EDGE, MARKER_FILL};
 use super::{RenderParams, SceneView, Shading};
 use crate::math::Vec3;
 
-/// Rows per rasterisation band (one parallel work item).
-const BAND: usize = 16;
+/// Output rows per band (one parallel work item; its z-buffer holds this many rows times the
+/// supersampling factor, squared, times the width: 8 × 9 × 800 samples, 460 kB, by default).
+const BAND_ROWS: usize = 8;
 
 /// Colours (sRGB) of the scene.
 const PLAIN: [u8; 3] = [142, 170, 204];
@@ -268,34 +275,44 @@ impl Setup {
     }
 }
 
-/// Fill a `w × h` z-buffer (view depth) and triangle-id buffer (u32::MAX: empty).
-fn rasterize_all(setups: &[Setup], w: usize, h: usize) -> (Vec<f32>, Vec<u32>) {
-    let mut depth = vec![f32::INFINITY; w * h];
-    let mut ids = vec![u32::MAX; w * h];
-    let bands = h.div_ceil(BAND);
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
+/// The supersampled z-buffer (view depth) and triangle-id buffer (u32::MAX: empty) of one band,
+/// reused from band to band.
+#[derive(Default)]
+struct BandBuffers {
+    depth: Vec<f32>,
+    ids: Vec<u32>,
+}
+
+impl BandBuffers {
+    /// Clear to `len` empty samples.
+    fn reset(&mut self, len: usize) {
+        self.depth.clear();
+        self.depth.resize(len, f32::INFINITY);
+        self.ids.clear();
+        self.ids.resize(len, u32::MAX);
+    }
+}
+
+/// For each band of `band_h` sample rows (of `h` in all), the setups that reach into it, in
+/// setup order.
+fn bin_setups(setups: &[Setup], band_h: usize, h: usize) -> Vec<Vec<u32>> {
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); h.div_ceil(band_h)];
     for (i, s) in setups.iter().enumerate() {
-        for bin in &mut bins[s.rows.0 / BAND..=s.rows.1 / BAND] {
+        for bin in &mut bins[s.rows.0 / band_h..=s.rows.1 / band_h] {
             bin.push(i as u32);
         }
     }
-    depth
-        .par_chunks_mut(BAND * w)
-        .zip(ids.par_chunks_mut(BAND * w))
-        .zip(bins.par_iter())
-        .enumerate()
-        .for_each(|(b, ((d, id), bin))| {
-            for &s in bin {
-                setups[s as usize].rasterize(b * BAND, w, d, id);
-            }
-        });
-    (depth, ids)
+    bins
 }
 
 /// Everything needed to shade one sample.
 struct Shader<'a> {
     tris: &'a [Tri],
     setups: &'a [Setup],
+    /// The setup of each triangle (sample ids are triangle indices).
+    setup_of: &'a [u32],
+    /// Samples per pixel along each axis.
+    ss: usize,
     proj: Projection,
     cmap: LinearViridis,
     range: (f64, f64),
@@ -337,6 +354,47 @@ pub(crate) fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
 }
 
 impl Shader<'_> {
+    /// The linear colour of output pixel (x, y), from its samples in `ids`: the triangle ids of
+    /// a band of supersampled rows from `row0`, `w` samples wide.
+    ///
+    /// A pixel whose samples all see the same triangle (or all see the background) is shaded
+    /// once at its centre, with lines filtered analytically over the pixel; only pixels on
+    /// silhouettes and triangle borders are shaded sample by sample.
+    fn pixel(&self, ids: &[u32], row0: usize, w: usize, x: usize, y: usize) -> [f32; 3] {
+        let ss = self.ss;
+        let at = |sx: usize, sy: usize| ids[(sy - row0) * w + sx];
+        let first = at(x * ss, y * ss);
+        let uniform =
+            (y * ss..(y + 1) * ss).all(|sy| (x * ss..(x + 1) * ss).all(|sx| at(sx, sy) == first));
+        let shade = |id: u32, px: f64, py: f64, filter: f64| {
+            if id == u32::MAX {
+                self.background(px, py, filter)
+            } else {
+                self.object(
+                    &self.setups[self.setup_of[id as usize] as usize],
+                    px,
+                    py,
+                    filter,
+                )
+            }
+        };
+        if uniform {
+            let centre = |v: usize| (v as f64 + 0.5) * ss as f64;
+            return shade(first, centre(x), centre(y), ss as f64);
+        }
+        let mut sum = [0f32; 3];
+        for sy in y * ss..(y + 1) * ss {
+            for sx in x * ss..(x + 1) * ss {
+                let c = shade(at(sx, sy), sx as f64 + 0.5, sy as f64 + 0.5, 1.0);
+                for i in 0..3 {
+                    sum[i] += c[i];
+                }
+            }
+        }
+        let norm = 1.0 / (ss * ss) as f32;
+        sum.map(|v| v * norm)
+    }
+
     /// The colour of the object at (px, py), with wireframe lines box-filtered over a square
     /// of `filter` samples (1 when shading one sample, the supersampling factor when shading
     /// a whole pixel at once).
@@ -433,6 +491,18 @@ pub(crate) fn render_frame(
     params: &RenderParams,
     range: (f64, f64),
 ) -> Image {
+    render_frame_in_bands(view, obstacles, camera, params, range, BAND_ROWS)
+}
+
+/// [`render_frame`] in bands of `band_rows` output rows (any height gives the same bytes).
+fn render_frame_in_bands(
+    view: &SceneView<'_>,
+    obstacles: &[[Vec3; 3]],
+    camera: &Camera,
+    params: &RenderParams,
+    range: (f64, f64),
+    band_rows: usize,
+) -> Image {
     let layout = Layout::new(params, params.field.is_some());
     let ss = params.supersample as usize;
     let (w, h) = (params.width as usize, params.height as usize);
@@ -445,7 +515,6 @@ pub(crate) fn render_frame(
         .enumerate()
         .filter_map(|(i, t)| Setup::new(t, i, &proj, sw, sh))
         .collect();
-    let (depth, ids) = rasterize_all(&setups, sw, sh);
     // Setups are indexed by triangle; map ids back to setups.
     let mut setup_of = vec![u32::MAX; tris.len()];
     for (i, s) in setups.iter().enumerate() {
@@ -458,6 +527,8 @@ pub(crate) fn render_frame(
     let shader = Shader {
         tris: &tris,
         setups: &setups,
+        setup_of: &setup_of,
+        ss,
         cmap: LinearViridis::new(),
         range,
         has_field: params.field.is_some(),
@@ -482,52 +553,46 @@ pub(crate) fn render_frame(
         height: sh as f64,
         proj,
     };
+    let markers = if params.show_fixed {
+        MarkerCandidates::new(view, params, &shader.proj, ss)
+    } else {
+        MarkerCandidates::default()
+    };
 
+    let band_rows = band_rows.max(1);
+    let band_h = band_rows * ss;
+    let bins = bin_setups(&setups, band_h, sh);
+    let marker_bins = markers.bin(band_h, sh);
     let encoder = SrgbEncoder::new();
-    let norm = 1.0 / (ss * ss) as f32;
     let mut pixels = vec![0u8; 3 * w * h];
-    pixels
-        .par_chunks_mut(3 * w)
+    let seen: Vec<Vec<u32>> = pixels
+        .par_chunks_mut(3 * w * band_rows)
+        .zip(bins.par_iter().zip(marker_bins.par_iter()))
         .enumerate()
-        .for_each(|(y, row)| {
-            for x in 0..w {
-                // A pixel whose samples all see the same triangle (or all see the background) is
-                // shaded once at its centre, with lines filtered analytically over the pixel; only
-                // pixels on silhouettes and triangle borders are shaded sample by sample.
-                let first = ids[y * ss * sw + x * ss];
-                let uniform = (y * ss..(y + 1) * ss).all(|sy| {
-                    ids[sy * sw + x * ss..sy * sw + (x + 1) * ss]
-                        .iter()
-                        .all(|&i| i == first)
-                });
-                let shade = |id: u32, px: f64, py: f64, filter: f64| {
-                    if id == u32::MAX {
-                        shader.background(px, py, filter)
-                    } else {
-                        let s = &shader.setups[setup_of[id as usize] as usize];
-                        shader.object(s, px, py, filter)
-                    }
-                };
-                let c = if uniform {
-                    let centre = |v: usize| (v as f64 + 0.5) * ss as f64;
-                    shade(first, centre(x), centre(y), ss as f64)
-                } else {
-                    let mut sum = [0f32; 3];
-                    for sy in y * ss..(y + 1) * ss {
-                        for sx in x * ss..(x + 1) * ss {
-                            let c = shade(ids[sy * sw + sx], sx as f64 + 0.5, sy as f64 + 0.5, 1.0);
-                            for i in 0..3 {
-                                sum[i] += c[i];
-                            }
+        .map_init(
+            BandBuffers::default,
+            |band, (b, (out, (bin, marker_bin)))| {
+                // Rasterise: sample rows [row0, row0 + rows) of the whole supersampled frame.
+                let row0 = b * band_h;
+                let rows = out.len() / (3 * w) * ss;
+                band.reset(rows * sw);
+                for &s in bin {
+                    setups[s as usize].rasterize(row0, sw, &mut band.depth, &mut band.ids);
+                }
+                // Shade and filter down each output pixel of the band from its own samples.
+                for (ly, row) in out.chunks_mut(3 * w).enumerate() {
+                    let y = b * band_rows + ly;
+                    for x in 0..w {
+                        let c = shader.pixel(&band.ids, row0, sw, x, y);
+                        for i in 0..3 {
+                            row[3 * x + i] = encoder.encode(c[i]);
                         }
                     }
-                    sum.map(|v| v * norm)
-                };
-                for i in 0..3 {
-                    row[3 * x + i] = encoder.encode(c[i]);
                 }
-            }
-        });
+                markers.seen_in_band(marker_bin, row0, sw, band)
+            },
+        )
+        .collect();
     let mut img = Image {
         width: params.width,
         height: params.height,
@@ -536,11 +601,7 @@ pub(crate) fn render_frame(
 
     let font = text::font();
     let px = layout.font_px;
-    let markers = if params.show_fixed {
-        draw_markers(&mut img, view, params, &shader.proj, &depth, &ids, ss, px)
-    } else {
-        0
-    };
+    let markers = markers.draw(&mut img, &seen, px);
     if let (Some(kind), Some(bar)) = (params.field, layout.colorbar) {
         text::draw_colorbar(&mut img, &font, px, bar, range, kind);
     }
@@ -605,72 +666,131 @@ pub(crate) fn render_frame(
     img
 }
 
-/// Red dots on the fixed vertices that are visible (on the surface, on the kept side of the
-/// cut, not hidden behind other parts). Returns how many were drawn.
-#[allow(clippy::too_many_arguments)]
-fn draw_markers(
-    img: &mut Image,
-    view: &SceneView<'_>,
-    params: &RenderParams,
-    proj: &Projection,
-    depth: &[f32],
-    ids: &[u32],
+/// The fixed vertices that may get a red dot: on the surface, on the kept side of the cut and in
+/// front of the camera. Whether the surface hides one is decided band by band, from the depth
+/// of the 3×3 samples around it ([`MarkerCandidates::seen_in_band`]).
+#[derive(Default)]
+struct MarkerCandidates {
+    /// Where each projects, in supersampled screen coordinates, and its depth.
+    at: Vec<[f64; 3]>,
+    /// How much farther than the surface seen there it may be and still count as visible.
+    slack: Vec<f64>,
     ss: usize,
-    font_px: f32,
-) -> usize {
-    if view.fixed.is_empty() {
-        return 0;
-    }
-    let (sw, sh) = (img.width as usize * ss, img.height as usize * ss);
-    let x = view.positions;
-    let surface = view.mesh.on_surface();
-    let kept = |p: &Vec3| {
-        params
-            .clip
-            .is_none_or(|c| (p - c.point).dot(&c.normal) <= 0.0)
-    };
-    let fixed: Vec<usize> = (0..x.len())
-        .filter(|&v| view.fixed[v] && surface[v] && kept(&x[v]))
-        .collect();
-    if fixed.is_empty() {
-        return 0;
-    }
-    let tolerance = 3e-3 * proj.scale;
-    let mut centres: Vec<(f64, f64)> = Vec::new();
-    for v in fixed {
-        let Some([sx, sy, z]) = proj.project(&x[v]) else {
-            continue;
+    size: (usize, usize),
+}
+
+impl MarkerCandidates {
+    fn new(
+        view: &SceneView<'_>,
+        params: &RenderParams,
+        proj: &Projection,
+        ss: usize,
+    ) -> MarkerCandidates {
+        let mut candidates = MarkerCandidates {
+            ss,
+            size: (params.width as usize * ss, params.height as usize * ss),
+            ..MarkerCandidates::default()
         };
-        let (cx, cy) = (sx.floor() as i64, sy.floor() as i64);
-        let slack = tolerance + 3.0 * z / proj.focal;
-        let mut visible = false;
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                let (qx, qy) = (cx + dx, cy + dy);
-                if qx < 0 || qy < 0 || qx >= sw as i64 || qy >= sh as i64 {
-                    continue;
-                }
-                let i = qy as usize * sw + qx as usize;
-                if ids[i] == u32::MAX || depth[i] as f64 >= z - slack {
-                    visible = true;
-                }
+        if view.fixed.is_empty() {
+            return candidates;
+        }
+        let x = view.positions;
+        let surface = view.mesh.on_surface();
+        let kept = |p: &Vec3| {
+            params
+                .clip
+                .is_none_or(|c| (p - c.point).dot(&c.normal) <= 0.0)
+        };
+        let tolerance = 3e-3 * proj.scale;
+        for v in 0..x.len() {
+            if !(view.fixed[v] && surface[v] && kept(&x[v])) {
+                continue;
+            }
+            let Some(at) = proj.project(&x[v]) else {
+                continue;
+            };
+            candidates.at.push(at);
+            candidates.slack.push(tolerance + 3.0 * at[2] / proj.focal);
+        }
+        candidates
+    }
+
+    /// The sample rows around candidate `i` (clipped to the frame; may be empty).
+    fn rows(&self, i: usize) -> std::ops::Range<i64> {
+        let cy = self.at[i][1].floor() as i64;
+        cy.saturating_sub(1).max(0)..cy.saturating_add(2).min(self.size.1 as i64)
+    }
+
+    /// For each band of `band_h` sample rows (of `h`), the candidates whose neighbourhood reaches
+    /// into it.
+    fn bin(&self, band_h: usize, h: usize) -> Vec<Vec<u32>> {
+        let mut bins: Vec<Vec<u32>> = vec![Vec::new(); h.div_ceil(band_h)];
+        for i in 0..self.at.len() {
+            let rows = self.rows(i);
+            if rows.is_empty() {
+                continue;
+            }
+            let (first, last) = (
+                rows.start as usize / band_h,
+                (rows.end - 1) as usize / band_h,
+            );
+            for bin in &mut bins[first..=last] {
+                bin.push(i as u32);
             }
         }
-        if visible {
-            centres.push((sx / ss as f64, sy / ss as f64));
+        bins
+    }
+
+    /// Which of the candidates in `bin` the band (sample rows from `row0`, `w` samples wide) shows:
+    /// a sample next to the vertex sees the background or a surface no nearer than the vertex
+    /// (less the slack).
+    fn seen_in_band(&self, bin: &[u32], row0: usize, w: usize, band: &BandBuffers) -> Vec<u32> {
+        let rows = band.ids.len() / w;
+        let band_rows = row0 as i64..(row0 + rows) as i64;
+        bin.iter()
+            .copied()
+            .filter(|&i| {
+                let [sx, _, z] = self.at[i as usize];
+                let cx = sx.floor() as i64;
+                let slack = self.slack[i as usize];
+                self.rows(i as usize)
+                    .filter(|qy| band_rows.contains(qy))
+                    .any(|qy| {
+                        (cx.saturating_sub(1)..=cx.saturating_add(1))
+                            .filter(|&qx| qx >= 0 && qx < w as i64)
+                            .any(|qx| {
+                                let k = (qy as usize - row0) * w + qx as usize;
+                                band.ids[k] == u32::MAX || band.depth[k] as f64 >= z - slack
+                            })
+                    })
+            })
+            .collect()
+    }
+
+    /// Red dots on the candidates some band saw (`seen`: per band); returns how many.
+    fn draw(&self, img: &mut Image, seen: &[Vec<u32>], font_px: f32) -> usize {
+        let mut visible = vec![false; self.at.len()];
+        for &i in seen.iter().flatten() {
+            visible[i as usize] = true;
         }
+        let ss = self.ss as f64;
+        let centres: Vec<(f64, f64)> = (0..self.at.len())
+            .filter(|&i| visible[i])
+            .map(|i| (self.at[i][0] / ss, self.at[i][1] / ss))
+            .collect();
+        // Marker size: a little over a third of the typical distance between neighbouring
+        // markers on screen, so that dense clamps (or clamps seen edge-on) do not become a red
+        // smear.
+        let max_r = 0.3 * font_px as f64;
+        let r = match typical_spacing(&centres) {
+            Some(spacing) => (0.38 * spacing).clamp(1.5, max_r),
+            None => max_r,
+        };
+        for &c in &centres {
+            text::draw_disc(img, c, r, MARKER_FILL, MARKER_EDGE);
+        }
+        centres.len()
     }
-    // Marker size: a little over a third of the typical distance between neighbouring markers
-    // on screen, so that dense clamps (or clamps seen edge-on) do not become a red smear.
-    let max_r = 0.3 * font_px as f64;
-    let r = match typical_spacing(&centres) {
-        Some(spacing) => (0.38 * spacing).clamp(1.5, max_r),
-        None => max_r,
-    };
-    for &c in &centres {
-        text::draw_disc(img, c, r, MARKER_FILL, MARKER_EDGE);
-    }
-    centres.len()
 }
 
 /// The median distance from a point to its nearest neighbour (None for fewer than 2 points).
@@ -719,4 +839,96 @@ fn format_length(l: f64) -> String {
     let v = l / div;
     let decimals = (-v.log10().floor()).max(0.0) as usize;
     format!("{} {unit}", text::format_number(v, decimals))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::camera::{Bounds, fit_camera};
+    use super::super::geometry::RenderMesh;
+    use super::super::{FieldKind, Plane};
+    use super::*;
+    use crate::mesh::generate::box_mesh;
+
+    /// Drawing band by band is the same, byte for byte, as drawing the whole supersampled frame
+    /// at once (one band of every row), whatever the band height: triangles, lines, the floor,
+    /// an obstacle, and fixed-vertex markers whose 3×3 sample neighbourhood straddles bands.
+    #[test]
+    fn bands_of_any_height_draw_the_whole_frame_s_bytes() {
+        let mesh = box_mesh(Vec3::zeros(), Vec3::new(4.0, 1.0, 1.0), [8, 3, 3]);
+        let rm = RenderMesh::new(&mesh);
+        // Twisted and sagging, so the surface is curved and partly hides the fixed end.
+        let x: Vec<Vec3> = mesh
+            .positions
+            .iter()
+            .map(|p| {
+                let a = 0.2 * p.x;
+                let (y, z) = (p.y - 0.5, p.z - 0.5);
+                Vec3::new(
+                    p.x,
+                    0.5 + y * a.cos() - z * a.sin() - 0.05 * p.x * p.x,
+                    0.5 + y * a.sin() + z * a.cos(),
+                )
+            })
+            .collect();
+        let field: Vec<f64> = x
+            .iter()
+            .zip(&mesh.positions)
+            .map(|(a, b)| (a - b).norm())
+            .collect();
+        let fixed: Vec<bool> = mesh.positions.iter().map(|p| p.x < 1e-9).collect();
+        let obstacle = [[
+            Vec3::new(4.2, -0.5, -0.5),
+            Vec3::new(4.2, 1.5, -0.5),
+            Vec3::new(4.2, 0.5, 1.5),
+        ]];
+        let view = SceneView {
+            mesh: &rm,
+            positions: &x,
+            field: &field,
+            fixed: &fixed,
+            time: 0.25,
+            frame: 7,
+        };
+        for params in [
+            RenderParams {
+                width: 97,
+                height: 61,
+                wireframe: true,
+                field: Some(FieldKind::Displacement),
+                ..RenderParams::default()
+            },
+            RenderParams {
+                width: 64,
+                height: 50,
+                supersample: 4,
+                azimuth_deg: 150.0,
+                clip: Some(Plane::new(
+                    Vec3::new(2.0, 0.5, 0.5),
+                    Vec3::new(0.0, 0.0, 1.0),
+                )),
+                ..RenderParams::default()
+            },
+        ] {
+            let mut bounds = Bounds::of(&x);
+            bounds.include(&obstacle[0]);
+            let camera = fit_camera(&bounds, &params);
+            let range = (0.0, 0.3);
+            let draw =
+                |rows| render_frame_in_bands(&view, &obstacle, &camera, &params, range, rows);
+            let whole = draw(params.height as usize);
+            // The markers are there (so their band-by-band visibility test is exercised).
+            assert!(
+                whole.pixels.chunks(3).any(|p| p == MARKER_FILL),
+                "no fixed-vertex marker drawn"
+            );
+            for rows in [1, 2, 5, BAND_ROWS, 1000] {
+                assert!(
+                    draw(rows) == whole,
+                    "{}x{}: bands of {rows} rows differ from the whole frame",
+                    params.width,
+                    params.height
+                );
+            }
+        }
+    }
 }
