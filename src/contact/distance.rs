@@ -514,3 +514,14 @@ pub fn segment_crosses_triangle(p: &Vec3, q: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3
 
 #[cfg(test)]
 mod tests;
+
+/// The signed solid angle (sr) that triangle abc subtends at p (Van Oosterom & Strackee 1983),
+/// positive when abc turns counter-clockwise seen from p; Σ over a closed, outward-oriented
+/// surface /4π is its winding number about p: 1 inside, 0 outside.
+pub fn solid_angle(p: &Vec3, a: &Vec3, b: &Vec3, c: &Vec3) -> f64 {
+    let (a, b, c) = (a - p, b - p, c - p);
+    let (la, lb, lc) = (a.norm(), b.norm(), c.norm());
+    let numerator = a.dot(&b.cross(&c));
+    let denominator = la * lb * lc + a.dot(&b) * lc + a.dot(&c) * lb + b.dot(&c) * la;
+    2.0 * numerator.atan2(denominator)
+}

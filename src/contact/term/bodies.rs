@@ -13,7 +13,7 @@ use super::held::normalize;
 use super::*;
 use crate::contact::broad::{Bvh, self_candidates};
 use crate::contact::distance::{
-    edge_edge_distance, point_triangle_distance, segment_crosses_triangle,
+    edge_edge_distance, point_triangle_distance, segment_crosses_triangle, solid_angle,
 };
 
 /// A pair of body surface primitives: point–triangle `[p, t₀, t₁, t₂]` (`split` 1) or edge–edge
@@ -204,6 +204,34 @@ impl ContactTerm {
                 }
             })
             .reduce(|| 1.0, f64::min);
+        if log::log_enabled!(log::Level::Trace) && t < 1.0 {
+            // Which pair limits the step, how far apart, how far it moves (debugging impacts).
+            for c in &candidates {
+                let (s, e) = (c.vertices.map(|v| x0[v]), c.vertices.map(|v| x1[v]));
+                let tc = if c.is_edge_edge() {
+                    edge_edge_ccd(&s, &e, &params)
+                } else {
+                    point_triangle_ccd(&s, &e, &params)
+                };
+                if tc == t {
+                    let moved = (0..4).map(|k| (e[k] - s[k]).norm()).fold(0.0, f64::max);
+                    let rest = c.vertices.map(|v| self.rest[v]);
+                    let eps_x =
+                        edge_edge_mollifier_threshold(&rest[0], &rest[1], &rest[2], &rest[3]);
+                    let cross = (s[1] - s[0]).cross(&(s[3] - s[2])).norm_squared();
+                    log::trace!("  |ea x eb|^2 / eps_x = {:.3e}", cross / eps_x);
+                    log::trace!(
+                        "CCD limit {t:.3e} by {:?} (split {}): gap {:.3e} m, active {}, moves {:.3e} m",
+                        c.vertices,
+                        c.split,
+                        c.distance(x0).sqrt(),
+                        c.distance(x0) < self.dhat,
+                        moved
+                    );
+                    break;
+                }
+            }
+        }
         (t, candidates.len())
     }
 
@@ -287,6 +315,9 @@ impl ContactTerm {
                 "crosses",
             ));
         }
+        if let Some(message) = self.nested_body(x) {
+            return Some(message);
+        }
         let touching = self
             .search_body_candidates(x, x, 0.0)
             .into_par_iter()
@@ -309,6 +340,56 @@ impl ContactTerm {
                 "touches",
             )
         })
+    }
+
+    /// A body lying wholly inside another (no surface crossing, so only the winding number of
+    /// the other's closed surface about one of its vertices tells), as the message of
+    /// [`Self::body_intersection`], or None.
+    fn nested_body(&self, x: &[Vec3]) -> Option<String> {
+        let s = &self.surface;
+        let bodies = s
+            .vertices
+            .iter()
+            .map(|&v| self.setup.body_of(v))
+            .max()
+            .map_or(0, |b| b as usize + 1);
+        if bodies < 2 {
+            return None;
+        }
+        // One surface vertex of each body, and each body's faces.
+        let mut first = vec![None; bodies];
+        for &v in &s.vertices {
+            first[self.setup.body_of(v) as usize].get_or_insert(v);
+        }
+        let mut faces: Vec<Vec<[usize; 3]>> = vec![Vec::new(); bodies];
+        for f in &s.faces {
+            faces[self.setup.body_of(f[0]) as usize].push(*f);
+        }
+        for (inner, v) in first.iter().enumerate() {
+            let Some(v) = *v else { continue };
+            for (outer, outer_faces) in faces.iter().enumerate() {
+                if outer == inner || outer_faces.is_empty() {
+                    continue;
+                }
+                let winding: f64 = outer_faces
+                    .iter()
+                    .map(|&[a, b, c]| solid_angle(&x[v], &x[a], &x[b], &x[c]))
+                    .sum::<f64>()
+                    / (4.0 * std::f64::consts::PI);
+                if winding.abs() > 0.5 {
+                    let (ni, no) = (
+                        self.setup.body_name(inner as u32),
+                        self.setup.body_name(outer as u32),
+                    );
+                    return Some(format!(
+                        "the initial state has body \"{ni}\" inside body \"{no}\": its surface \
+                         vertex {v} at ({:.4}, {:.4}, {:.4}) lies within the surface of \"{no}\"",
+                        x[v].x, x[v].y, x[v].z
+                    ));
+                }
+            }
+        }
+        None
     }
 
     /// "the initial state intersects: body "a" (its ...) crosses body "b" (...)", or "... passes

@@ -474,3 +474,30 @@ fn kept_candidates_are_a_fresh_searchs() {
         "the list was searched {searches} times for 240 queries"
     );
 }
+
+/// A body wholly inside another crosses no surface, yet is refused, naming both bodies; the
+/// same small body beside the big one is not.
+#[test]
+fn a_body_inside_another_is_refused() {
+    for (offset, inside) in [(Vec3::repeat(0.4), true), (Vec3::new(1.5, 0.0, 0.0), false)] {
+        let (mesh, body) = boxes(&[
+            (Vec3::zeros(), Vec3::repeat(1.0), [2, 2, 2], 0),
+            (offset, offset + Vec3::repeat(0.2), [1, 1, 1], 1),
+        ]);
+        let term = ContactTerm::new(
+            setup(body, 0.01, 0.0, false),
+            &mesh,
+            &vec![1.0; mesh.positions.len()],
+        );
+        let found = term.intersection(&mesh.positions);
+        if inside {
+            let message = found.expect("nested bodies refused");
+            assert!(
+                message.contains("body \"right\" inside body \"left\""),
+                "{message}"
+            );
+        } else {
+            assert_eq!(found, None);
+        }
+    }
+}
