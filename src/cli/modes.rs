@@ -88,7 +88,7 @@ pub fn run(args: ModesArgs, quiet: bool) -> anyhow::Result<ExitCode> {
 fn write_modes(sim: &Simulation, modes: &Modes, out: &Path) -> anyhow::Result<usize> {
     let mut csv = String::from("mode,frequency_hz\n");
     for (i, mode) in modes.modes.iter().enumerate() {
-        csv.push_str(&format!("{i},{:e}\n", mode.frequency_hz));
+        csv.push_str(&format!("{i},{:?}\n", mode.frequency_hz));
     }
     let path = out.join("modes.csv");
     tetsim::io::atomic_write(&path, |w| w.write_all(csv.as_bytes()))?;

@@ -467,7 +467,7 @@ impl Run<'_> {
     /// One Cholesky-QR pass: `Q ← Q·L⁻ᵀ` with `QᵀBQ = L·Lᵀ`; false (Q unchanged) when the
     /// factor fails or is too ill-conditioned.
     fn cholesky_qr(&self, q: &mut Block) -> bool {
-        let g = gram_sym(q, &mass_block(q, self.mass));
+        let g = gram_sym_mass(q, self.mass);
         let Some(chol) = g.clone().cholesky() else {
             return false;
         };
@@ -489,7 +489,7 @@ impl Run<'_> {
     /// SVQB (Stathopoulos and Wu 2002): scale columns to unit B-norm, `Q ← Q·D·V·Θ^{-1/2}` over
     /// the eigenpairs (θ, v) of the scaled Gram matrix with θ above [`SVQB_DROP`]·θ_max.
     fn svqb(&self, q: &mut Block) {
-        let g = gram_sym(q, &mass_block(q, self.mass));
+        let g = gram_sym_mass(q, self.mass);
         let k = g.nrows();
         let d: Vec<f64> = (0..k)
             .map(|i| {
@@ -536,13 +536,6 @@ fn mask(v: &mut [Vec3], free: &[Vec3]) {
         .zip(free)
         .with_min_len(CHUNK)
         .for_each(|(v, m)| *v = v.component_mul(m));
-}
-
-/// `B·q` for every column.
-fn mass_block(q: &Block, mass: &[f64]) -> Block {
-    q.par_iter()
-        .map(|v| v.iter().zip(mass).map(|(v, m)| v * *m).collect())
-        .collect()
 }
 
 /// splitmix64: a small, well-mixed generator for reproducible start vectors.
@@ -613,21 +606,17 @@ fn gram_with(
         .map(|c| {
             let range = c * CHUNK..((c + 1) * CHUNK).min(n);
             let mut g = DMatrix::zeros(ka, kb);
+            let mut weighted = Vec::with_capacity(range.len());
             for i in 0..ka {
-                let ai = &a[i][range.clone()];
+                let mut ai = &a[i][range.clone()];
+                if let Some(w) = weight {
+                    weighted.clear();
+                    weighted.extend(ai.iter().zip(&w[range.clone()]).map(|(x, w)| x * *w));
+                    ai = &weighted;
+                }
                 let first = if symmetric { i } else { 0 };
                 for j in first..kb {
-                    let bj = &b[j][range.clone()];
-                    let sum = match weight {
-                        Some(w) => ai
-                            .iter()
-                            .zip(bj)
-                            .zip(&w[range.clone()])
-                            .map(|((x, y), w)| w * x.dot(y))
-                            .sum(),
-                        None => ai.iter().zip(bj).map(|(x, y)| x.dot(y)).sum(),
-                    };
-                    g[(i, j)] = sum;
+                    g[(i, j)] = dot(ai, &b[j][range.clone()]);
                 }
             }
             g
@@ -644,6 +633,24 @@ fn gram_with(
         }
     }
     g
+}
+
+/// `Σ a·b` with four independent accumulators, so the loop is not bound by the latency of one
+/// running sum; the order is fixed, so the result is too.
+fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+    let mut lanes = [Vec3::zeros(); 4];
+    let (head_a, head_b) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (tail_a, tail_b) = (head_a.remainder(), head_b.remainder());
+    for (x, y) in head_a.zip(head_b) {
+        for k in 0..4 {
+            lanes[k] += x[k].component_mul(&y[k]);
+        }
+    }
+    let mut tail = Vec3::zeros();
+    for (x, y) in tail_a.iter().zip(tail_b) {
+        tail += x.component_mul(y);
+    }
+    ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail).sum()
 }
 
 /// `S·C` for a block given as several pieces (their columns concatenated).
