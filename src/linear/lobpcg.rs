@@ -828,6 +828,37 @@ mod tests {
     }
 
     #[test]
+    fn an_unreachable_tolerance_stops_early_with_the_best_pairs() {
+        // 1e-20 is below rounding: the iteration must notice it stopped improving and say so,
+        // not run to the cap.
+        let (n, k) = (40, 3.0);
+        let err = lobpcg(
+            &mut Chain { n, k },
+            &vec![1.0; n],
+            &vec![Vec3::repeat(1.0); n],
+            &mut Diagonal(2.0 * k),
+            &[],
+            &LobpcgParams {
+                count: 2,
+                tolerance: 1e-20,
+                ..Default::default()
+            },
+        )
+        .unwrap_err();
+        let LobpcgError::NotConverged(pairs) = err else {
+            panic!("{err}");
+        };
+        assert!(pairs.info.iterations < 200, "{:?}", pairs.info);
+        // What it has is still right to rounding.
+        let exact = 4.0
+            * k
+            * (std::f64::consts::PI / (2.0 * (n as f64 + 1.0)))
+                .sin()
+                .powi(2);
+        assert!((pairs.values[0] - exact).abs() < 1e-12 * exact);
+    }
+
+    #[test]
     fn too_many_pairs_for_the_free_dofs_is_an_error() {
         let n = 3;
         let mut free = vec![Vec3::zeros(); n];
