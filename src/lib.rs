@@ -46,6 +46,8 @@
 //!   surfaces, rigid obstacles, friction, and the contact term of the incremental potential.
 //! - [`audit`]: the energy audit of every step (steps.csv, run summary).
 //! - [`sim`]: the simulation (state + solver), advanced frame by frame.
+//! - [`modes`]: vibration modes at rest (LOBPCG, [`linear::lobpcg`]) and Rayleigh damping from
+//!   a damping ratio.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
@@ -101,6 +103,7 @@ pub mod manifest;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod modes;
 pub mod output;
 pub mod parallel;
 #[cfg(feature = "cli")]

@@ -87,6 +87,20 @@ pub fn resolved_parameters(scene: &Scene, sim: &Simulation) -> Result<Value> {
                 "mean_edge_length": sim.body.mesh.mean_edge_length(),
             }),
         );
+        // A damping ratio: the coefficients it resolved to replace the tables' defaults.
+        if let Some(d) = sim.damping() {
+            if let Some(Value::Object(solver)) = map.get_mut("solver") {
+                solver.insert("rayleigh_mass".into(), d.rayleigh_mass.into());
+                solver.insert("rayleigh_stiffness".into(), d.rayleigh_stiffness.into());
+            }
+            map["resolved"]["damping"] = json!({
+                "damping_ratio": d.ratio,
+                "damping_frequencies": d.frequencies_hz,
+                "frequencies_from": if d.from_modes { "lowest mode" } else { "scene" },
+                "rayleigh_mass": d.rayleigh_mass,
+                "rayleigh_stiffness": d.rayleigh_stiffness,
+            });
+        }
     }
     Ok(value)
 }

@@ -67,6 +67,8 @@ pub struct Simulation {
     /// Frames the motions and loads ramp over when not `params.frames` (a resumed run taken
     /// further than it was started for keeps its ramps).
     ramp_frames: Option<usize>,
+    /// The Rayleigh coefficients' origin when a damping ratio set them.
+    damping: Option<crate::modes::DampingResolution>,
 }
 
 impl Simulation {
@@ -133,6 +135,7 @@ impl Simulation {
             renumbering: None,
             bodies,
             ramp_frames: None,
+            damping: None,
         })
     }
 
@@ -155,6 +158,18 @@ impl Simulation {
     pub fn with_bodies(mut self, bodies: crate::mesh::bodies::Bodies) -> Self {
         self.bodies = bodies;
         self
+    }
+
+    /// Record that `params`' Rayleigh coefficients come from a damping ratio (SPEC §13), for
+    /// the run's report and manifest.
+    pub fn with_damping(mut self, damping: Option<crate::modes::DampingResolution>) -> Self {
+        self.damping = damping;
+        self
+    }
+
+    /// The damping ratio the Rayleigh coefficients were resolved from, if any.
+    pub fn damping(&self) -> Option<&crate::modes::DampingResolution> {
+        self.damping.as_ref()
     }
 
     /// The bodies in the mesh, in input order (one, "body0", unless named).

@@ -4,8 +4,12 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[path = "common/beam24.rs"]
+mod beam24;
 #[path = "cli/contact.rs"]
 mod contact;
+#[path = "cli/modes.rs"]
+mod modes;
 #[path = "cli/resume.rs"]
 mod resume;
 #[path = "cli/trust.rs"]

@@ -2,6 +2,8 @@
 //! conservation and dissipation, settling to equilibrium, determinism, and every sample scene.
 
 mod common;
+#[path = "simulate/modes.rs"]
+mod modes;
 
 use common::{Collapse, carved_ball, rigid_distance};
 

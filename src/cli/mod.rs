@@ -4,6 +4,7 @@ mod bench;
 mod check;
 mod compare;
 pub mod mesh;
+mod modes;
 #[cfg(feature = "mpi")]
 mod mpirun;
 mod render;
@@ -35,6 +36,8 @@ pub struct Cli {
 enum Command {
     /// Run a scene (no SCENE: the built-in default scene) and write frames.
     Run(run::RunArgs),
+    /// The lowest vibration modes of the scene's body at rest: modes.csv, mode_NN.vtu, GIFs.
+    Modes(modes::ModesArgs),
     /// Check and convert meshes.
     #[command(subcommand)]
     Mesh(mesh::MeshCommand),
@@ -85,6 +88,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         #[cfg(feature = "mpi")]
         Command::Run(args) if mpirun::launched() => mpirun::run(args, cli.quiet, cli.verbose),
         Command::Run(args) => run::run(args, cli.quiet, cli.verbose),
+        Command::Modes(args) => modes::run(args, cli.quiet),
         Command::Mesh(cmd) => mesh::run(cmd).map(|()| ExitCode::SUCCESS),
         Command::Render(args) => render::run(args, cli.quiet),
         Command::Compare(args) => compare::run(args, cli.quiet),

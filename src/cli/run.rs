@@ -72,6 +72,23 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
         // After building: a missing file is reported at its scene key by the build.
         record.inputs = tetsim::manifest::input_hashes(&scene)?.to_string();
     }
+    if let Some(d) = sim.damping()
+        && !quiet
+    {
+        eprintln!(
+            "damping ratio {} at {:.6} Hz and {:.6} Hz ({}): rayleigh_mass = {:.6e} 1/s, rayleigh_stiffness = {:.6e} s",
+            d.ratio,
+            d.frequencies_hz[0],
+            d.frequencies_hz[1],
+            if d.from_modes {
+                "the lowest mode and ten times it"
+            } else {
+                "damping_frequencies"
+            },
+            d.rayleigh_mass,
+            d.rayleigh_stiffness
+        );
+    }
     let mut warnings = plausibility_warnings(&sim.body, &sim.boundary, &sim.params);
     for w in &warnings {
         log::warn!("{w}");

@@ -15,6 +15,7 @@
 //! [`PreconditionerKind`] value (and its scene name). The building blocks live beside them:
 //! [`cg`] (preconditioned conjugate gradient on any [`cg::LinearOperator`]), [`sparse`] (block
 //! matrices and patterns), [`amg`] (the multigrid hierarchy) and `direct` (faer's Cholesky).
+//! [`lobpcg`] finds the lowest eigenpairs of such systems (the vibration modes, [`crate::modes`]).
 //!
 //! **Changing patterns.** Every assembled strategy compares [`SystemPattern::generation`] with
 //! the one it prepared for: a new generation rebuilds the matrix storage and what depends on the
@@ -26,6 +27,7 @@ pub mod cg;
 pub mod cholesky;
 #[cfg(feature = "direct")]
 pub mod direct;
+pub mod lobpcg;
 pub mod matrix_free;
 pub mod multigrid;
 pub mod sparse;

@@ -14,6 +14,7 @@ use crate::math::Vec3;
 use crate::mesh::TetMesh;
 use crate::mesh::generate::box_mesh;
 use crate::mesh::ordering::{Renumbering, VertexOrder};
+use crate::modes::DampingResolution;
 use crate::sim::{Simulation, State};
 
 use super::bodies::Membership;
@@ -136,6 +137,33 @@ impl Scene {
                 OnFailureName::Stop => OnFailure::Stop,
             },
             max_step_cuts: s.max_step_cuts,
+        }
+    }
+
+    /// The Rayleigh coefficients `[solver] damping_ratio` resolves to on `body` with the free
+    /// DOFs `free` (None without a ratio). Without `damping_frequencies`, f₁ is the body's
+    /// lowest elastic vibration mode ([`crate::modes`]), found by an eigen-solve.
+    pub fn resolve_damping(
+        &self,
+        body: &ElasticBody,
+        free: &[Vec3],
+    ) -> Result<Option<DampingResolution>> {
+        let Some(zeta) = self.solver.damping_ratio else {
+            return Ok(None);
+        };
+        match self.solver.damping_frequencies {
+            Some(f) => Ok(Some(DampingResolution::new(zeta, f, false))),
+            None => DampingResolution::from_lowest_mode(zeta, body, free)
+                .map(Some)
+                .map_err(|e| {
+                    self.error_at(
+                        &key!["solver", "damping_ratio"],
+                        format!(
+                            "the default damping_frequencies need the lowest vibration mode, \
+                             which was not found ({e}): give damping_frequencies = [f1, f2] (Hz)"
+                        ),
+                    )
+                }),
         }
     }
 
@@ -437,9 +465,16 @@ impl Simulation {
             vertex_body: membership.vertex_body.clone(),
             ..setup
         });
-        let sim = Simulation::new(body, boundary, scene.solver_params(), initial)?
+        let mut params = scene.solver_params();
+        let damping = scene.resolve_damping(&body, &boundary.free_mask(body.vertex_count()))?;
+        if let Some(d) = &damping {
+            params.rayleigh_mass = d.rayleigh_mass;
+            params.rayleigh_stiffness = d.rayleigh_stiffness;
+        }
+        let sim = Simulation::new(body, boundary, params, initial)?
             .with_renumbering(renumbering)
-            .with_bodies(bodies);
+            .with_bodies(bodies)
+            .with_damping(damping);
         match contact {
             Some(setup) => sim.with_contact(setup),
             None => Ok(sim),

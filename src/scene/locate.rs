@@ -132,6 +132,29 @@ impl<'t> Locator<'t> {
         found
     }
 
+    /// Whether the text gives `path` itself (not only a table above it): `solver.rayleigh_mass`
+    /// written out, as opposed to left at its default.
+    pub(crate) fn has(&self, path: &[Seg]) -> bool {
+        let Some(root) = &self.root else {
+            return false;
+        };
+        let mut table: &DeTable = root.get_ref();
+        for (i, seg) in path.iter().enumerate() {
+            let Seg::Key(key) = *seg else { return false };
+            let Some((_, value)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == key) else {
+                return false;
+            };
+            if i + 1 == path.len() {
+                return true;
+            }
+            match value.get_ref() {
+                DeValue::Table(t) => table = t,
+                _ => return false,
+            }
+        }
+        false
+    }
+
     /// 1-based line and column of `path` (see [`Locator::span`]); (1, 1) when it is not there.
     pub(crate) fn line_column(&self, path: &[Seg]) -> (usize, usize) {
         self.span(path)
@@ -238,6 +261,15 @@ duration = -1
             at.line_column(&key!["fixed", 1, "region", "box", "max"]),
             (12, 20)
         );
+    }
+
+    #[test]
+    fn written_keys_are_told_from_defaults() {
+        let at = Locator::new(TEXT);
+        assert!(at.has(&key!["solver", "dt"]));
+        assert!(at.has(&key!["mesh", "generator"]));
+        assert!(!at.has(&key!["solver", "frames"]));
+        assert!(!at.has(&key!["output", "dir"]));
     }
 
     #[test]

@@ -449,6 +449,14 @@ pub struct SolverSpec {
     pub rayleigh_stiffness: f64,
     /// Rayleigh mass damping α, 1/s. Default 0.
     pub rayleigh_mass: f64,
+    /// Damping ratio ζ (SPEC §13): sets `rayleigh_mass` and `rayleigh_stiffness` so that
+    /// motion at both `damping_frequencies` is damped by ζ. Default: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damping_ratio: Option<f64>,
+    /// f₁ < f₂ (Hz) where the damping ratio holds exactly. Default: the body's lowest elastic
+    /// mode and ten times its frequency.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damping_frequencies: Option<[f64; 2]>,
     /// Newton tolerance relative to the step's first residual. Default 1e-6.
     pub newton_tolerance: f64,
     /// Newton iterations per step. Default 20.
@@ -493,6 +501,8 @@ impl Default for SolverSpec {
             substeps: p.substeps,
             rayleigh_stiffness: p.rayleigh_stiffness,
             rayleigh_mass: p.rayleigh_mass,
+            damping_ratio: None,
+            damping_frequencies: None,
             newton_tolerance: p.newton_tolerance,
             newton_max_iterations: p.newton_max_iterations,
             cg_tolerance: p.cg.tolerance,

@@ -34,6 +34,9 @@ pub(crate) const MAX_SUBSTEPS: usize = 100_000;
 pub(crate) const MAX_NEWTON_ITERATIONS: usize = 10_000;
 /// See [`MAX_FRAMES`].
 pub(crate) const MAX_CG_ITERATIONS: usize = 10_000_000;
+/// The largest damping ratio accepted: far into overdamping (1 is critical), and low enough
+/// that the Rayleigh coefficients it gives stay finite.
+const MAX_DAMPING_RATIO: f64 = 1000.0;
 /// The shortest time step, s.
 const MIN_DT: f64 = 1e-12;
 
@@ -661,6 +664,7 @@ impl Validator<'_> {
         }
         self.non_negative(&at("rayleigh_stiffness"), s.rayleigh_stiffness, "s");
         self.non_negative(&at("rayleigh_mass"), s.rayleigh_mass, "1/s");
+        self.damping(s);
         self.positive(&at("newton_tolerance"), s.newton_tolerance, "");
         self.at_least_one(&at("newton_max_iterations"), s.newton_max_iterations);
         self.positive(&at("cg_tolerance"), s.cg_tolerance, "");
@@ -680,6 +684,60 @@ impl Validator<'_> {
                 "\"cholesky\" needs the sparse direct solver, which this tetsim was built \
                  without: rebuild with `cargo build --release --features direct`",
             );
+        }
+    }
+
+    /// `damping_ratio` and `damping_frequencies` (SPEC §13): a ratio ζ ≥ 0, never beside an
+    /// explicit `rayleigh_*` key; frequencies 0 < f₁ < f₂ (Hz), only with a ratio.
+    fn damping(&mut self, s: &SolverSpec) {
+        let at = |k: &'static str| key!["solver", k];
+        let Some(zeta) = s.damping_ratio else {
+            if s.damping_frequencies.is_some() {
+                self.fail(
+                    &at("damping_frequencies"),
+                    "needs solver.damping_ratio, the ratio to reach at these frequencies",
+                );
+            }
+            return;
+        };
+        if !(zeta >= 0.0 && zeta.is_finite()) {
+            self.fail(
+                &at("damping_ratio"),
+                format!("must be zero or positive and finite, got {zeta}"),
+            );
+        } else if zeta > MAX_DAMPING_RATIO {
+            self.fail(
+                &at("damping_ratio"),
+                format!("must be at most {MAX_DAMPING_RATIO} (1 is critical damping), got {zeta}"),
+            );
+        }
+        for k in ["rayleigh_mass", "rayleigh_stiffness"] {
+            if self.at.has(&at(k)) {
+                let (line, _) = self.at.line_column(&at("damping_ratio"));
+                self.fail(
+                    &at(k),
+                    format!(
+                        "cannot be given with solver.damping_ratio (line {line}), which sets it: \
+                         give the ratio or the Rayleigh coefficients, not both"
+                    ),
+                );
+            }
+        }
+        if let Some([f1, f2]) = s.damping_frequencies {
+            let key = at("damping_frequencies");
+            if ![f1, f2].iter().all(|f| *f > 0.0 && f.is_finite()) {
+                self.fail(
+                    &key,
+                    format!("must be two positive, finite frequencies (Hz), got [{f1}, {f2}]"),
+                );
+            } else if f2 <= f1 {
+                self.fail(
+                    &key,
+                    format!("the second frequency must be above the first (Hz), got [{f1}, {f2}]"),
+                );
+            } else {
+                self.bounded(&key, f2, "Hz");
+            }
         }
     }
 

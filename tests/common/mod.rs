@@ -2,6 +2,8 @@
 //! with a sweep of step sizes, small meshes.
 #![allow(dead_code)]
 
+pub mod beam24;
+
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tetsim::mesh::generate::box_mesh;

@@ -52,6 +52,48 @@ fn every_bad_value_is_named_at_its_key_line() {
             "inf",
         ),
         (
+            "[solver]\ndamping_ratio = 0.02\nrayleigh_mass = 0.5\n",
+            3,
+            "solver.rayleigh_mass: ",
+            "damping_ratio (line 2)",
+        ),
+        (
+            "[solver]\nrayleigh_stiffness = 0.01\ndt = 0.1\ndamping_ratio = 0.02\n",
+            2,
+            "solver.rayleigh_stiffness: ",
+            "not both",
+        ),
+        (
+            "[solver]\ndamping_ratio = -0.1\n",
+            2,
+            "solver.damping_ratio: ",
+            "got -0.1",
+        ),
+        (
+            "[solver]\ndamping_ratio = 0.02\ndamping_frequencies = [-1.0, 10.0]\n",
+            3,
+            "solver.damping_frequencies: ",
+            "positive",
+        ),
+        (
+            "[solver]\ndamping_ratio = 0.02\ndamping_frequencies = [0.0, 10.0]\n",
+            3,
+            "solver.damping_frequencies: ",
+            "positive",
+        ),
+        (
+            "[solver]\ndamping_ratio = 0.02\ndamping_frequencies = [5.0, 5.0]\n",
+            3,
+            "solver.damping_frequencies: ",
+            "above the first",
+        ),
+        (
+            "[solver]\ndt = 0.1\ndamping_frequencies = [1.0, 10.0]\n",
+            3,
+            "solver.damping_frequencies: ",
+            "needs solver.damping_ratio",
+        ),
+        (
             "[solver]\nnewton_max_iterations = 0\n",
             2,
             "solver.newton_max_iterations: ",
