@@ -94,6 +94,7 @@ pub mod diagnose;
 pub mod elastic;
 pub mod error;
 pub mod field;
+pub mod info;
 pub mod integrator;
 pub mod io;
 pub mod linear;
@@ -101,6 +102,7 @@ pub mod manifest;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod monitor;
 pub mod output;
 pub mod parallel;
 #[cfg(feature = "cli")]
