@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[path = "cli/analyses.rs"]
+mod analyses;
 #[path = "cli/contact.rs"]
 mod contact;
 #[path = "cli/resume.rs"]

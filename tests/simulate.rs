@@ -3,6 +3,9 @@
 
 mod common;
 
+#[path = "simulate/analyses.rs"]
+mod analyses;
+
 use common::{Collapse, carved_ball, rigid_distance};
 
 use std::path::Path;
