@@ -154,3 +154,35 @@ fn a_probe_outside_the_mesh_is_refused_at_its_point() {
     let sim = crate::sim::Simulation::from_scene(&parse(&text).unwrap()).unwrap();
     assert_eq!(sim.monitors().probes.len(), 1);
 }
+
+#[test]
+fn a_mesh_unit_scales_the_mesh_file_and_the_initial_positions() {
+    // The Gmsh beam fixture ([0,4]×[0,1]×[0,1]) read as if in millimetres, and initial
+    // positions 1 (mm) above the rest shape.
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/beam_v41.msh");
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = crate::io::read_mesh(&fixture).unwrap().mesh;
+    let lifted: String = mesh
+        .positions
+        .iter()
+        .map(|p| format!("{:?} {:?} {:?}\n", p[0], p[1] + 1.0, p[2]))
+        .collect();
+    std::fs::write(dir.path().join("lifted.txt"), lifted).unwrap();
+    let text = format!(
+        "[mesh]\nfile = {:?}\nunit = \"mm\"\n[initial]\npositions = \"lifted.txt\"\n",
+        fixture.display().to_string()
+    );
+    let scene = Scene::parse(&text, Path::new("s.toml"), dir.path()).unwrap();
+    let sim = crate::sim::Simulation::from_scene(&scene).unwrap();
+    let (lo, hi) = sim.body.mesh.bounding_box();
+    assert_eq!((lo[0], hi[0]), (0.0, 0.004), "the rest mesh in metres");
+    let x = sim.to_input_order(&sim.state.x);
+    for (v, p) in mesh.positions.iter().enumerate() {
+        let expected = crate::math::Vec3::new(p[0] / 1000.0, (p[1] + 1.0) / 1000.0, p[2] / 1000.0);
+        assert!(
+            (x[v] - expected).norm() < 1e-18,
+            "vertex {v}: {} vs {expected}",
+            x[v]
+        );
+    }
+}
