@@ -207,6 +207,20 @@ impl ElasticBody {
         }
     }
 
+    /// The material index of tet t: 0 for the body's own, k ≥ 1 for region k − 1.
+    #[inline]
+    pub fn material_index(&self, t: usize) -> usize {
+        self.tet_material.get(t).map_or(0, |&k| k as usize)
+    }
+
+    /// Material k (see [`ElasticBody::material_index`]) and its density, kg/m³.
+    pub fn material(&self, k: usize) -> (&Model, f64) {
+        match k {
+            0 => (&self.model, self.density),
+            k => (&self.regions[k - 1].0, self.regions[k - 1].1),
+        }
+    }
+
     /// How many tets use each material: the body's own first, then each region's.
     pub fn material_counts(&self) -> Vec<usize> {
         let mut counts = vec![0; 1 + self.regions.len()];

@@ -96,6 +96,7 @@ pub mod diagnose;
 pub mod elastic;
 pub mod error;
 pub mod field;
+pub mod info;
 pub mod integrator;
 pub mod io;
 pub mod linear;
@@ -104,6 +105,7 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod modes;
+pub mod monitor;
 pub mod output;
 pub mod parallel;
 #[cfg(feature = "cli")]

@@ -59,6 +59,9 @@ pub struct Recorder {
     pvd: Vec<(f64, String)>,
     csv: String,
     timings: String,
+    /// probes.csv and reactions.csv (SPEC §13): empty when the run has none.
+    probes_csv: String,
+    reactions_csv: String,
     frames: Vec<FrameFiles>,
     written: Vec<PathBuf>,
     /// Set at the first frame: None without contact.
@@ -67,6 +70,8 @@ pub struct Recorder {
     named: Option<String>,
     /// Problems the manifest reports (a picture that could not be drawn).
     problems: Vec<String>,
+    /// The manifest's `info` object (see [`crate::info`]), made at the first manifest.
+    info: Option<serde_json::Value>,
 }
 
 /// What the recorder keeps when contact is on.
@@ -93,11 +98,14 @@ impl Recorder {
             // The header waits for the first frame, which says whether contact is on.
             csv: String::new(),
             timings: format!("{TIMINGS_HEADER}\n"),
+            probes_csv: String::new(),
+            reactions_csv: String::new(),
             frames: Vec::new(),
             written: Vec::new(),
             contact: None,
             named: None,
             problems: Vec::new(),
+            info: None,
         })
     }
 
@@ -168,6 +176,21 @@ impl Recorder {
                 r.timings.push('\n');
             }
         }
+        // probes.csv and reactions.csv: their rows up to the frame, like timings.csv.
+        let monitors = [
+            ("probes.csv", r.probes_csv.clone()),
+            ("reactions.csv", r.reactions_csv.clone()),
+        ];
+        for (name, header) in monitors {
+            if header.is_empty() {
+                continue;
+            }
+            let kept = rows_up_to(&dir.join(name), &header, last)?;
+            match name {
+                "probes.csv" => r.probes_csv = kept,
+                _ => r.reactions_csv = kept,
+            }
+        }
         r.pvd.clone_from(&saved.pvd);
         r.frames = saved
             .frames
@@ -213,6 +236,16 @@ impl Recorder {
         }
         for name in ["frames.pvd", "steps.csv", "timings.csv"] {
             r.note(dir.join(name));
+        }
+        for (name, text) in [
+            ("probes.csv", r.probes_csv.clone()),
+            ("reactions.csv", r.reactions_csv.clone()),
+        ] {
+            if !text.is_empty() {
+                let path = dir.join(name);
+                atomic_write(&path, |w| w.write_all(text.as_bytes()))?;
+                r.note(path);
+            }
         }
         Ok(r)
     }
@@ -372,6 +405,36 @@ impl Recorder {
         let timings = &self.timings;
         atomic_write(&path, |w| w.write_all(timings.as_bytes()))?;
         self.note(path);
+        self.write_monitors(sim)
+    }
+
+    /// A row of probes.csv (each probe's displacement, m) and of reactions.csv (each named
+    /// constraint's reaction force, N) for the current frame, when the run has them.
+    fn write_monitors(&mut self, sim: &Simulation) -> Result<()> {
+        let start = format!("{},{}", sim.frame(), num(sim.state.t));
+        let rows = [
+            ("probes.csv", sim.probe_displacements()),
+            ("reactions.csv", sim.reaction_forces()),
+        ];
+        for (name, values) in rows {
+            if values.is_empty() {
+                continue;
+            }
+            let text = match name {
+                "probes.csv" => &mut self.probes_csv,
+                _ => &mut self.reactions_csv,
+            };
+            text.push_str(&start);
+            for c in values.iter().flat_map(|v| v.iter()) {
+                text.push(',');
+                text.push_str(&num(*c));
+            }
+            text.push('\n');
+            let path = self.dir.join(name);
+            let bytes = text.as_bytes();
+            atomic_write(&path, |w| w.write_all(bytes))?;
+            self.note(path);
+        }
         Ok(())
     }
 
@@ -398,7 +461,13 @@ impl Recorder {
             })
             .collect();
         let mut collected = serde_json::Map::new();
-        for name in ["frames.pvd", "steps.csv", "obstacles.pvd"] {
+        for name in [
+            "frames.pvd",
+            "steps.csv",
+            "obstacles.pvd",
+            "probes.csv",
+            "reactions.csv",
+        ] {
             let path = self.dir.join(name);
             if path.exists() {
                 collected.insert(name.into(), sha256_file(&path)?.into());
@@ -417,6 +486,9 @@ impl Recorder {
             },
             "inputs": input_hashes(scene)?,
             "parameters": resolved_parameters(scene, sim)?,
+            "info": self
+                .info
+                .get_or_insert_with(|| crate::info::describe(scene, sim).to_json()),
             "outputs": { "files": collected, "frames": frames },
         });
         let mut manifest = manifest;
@@ -431,9 +503,17 @@ impl Recorder {
         Ok(())
     }
 
-    /// At the first frame: the steps.csv header, and with contact the obstacles at rest.
+    /// At the first frame: the steps.csv header (and probes.csv's and reactions.csv's when the
+    /// run has them), and with contact the obstacles at rest.
     fn start(&mut self, sim: &Simulation) {
         self.csv = format!("{STEPS_HEADER}\n");
+        let monitors = sim.monitors();
+        if !monitors.probes.is_empty() {
+            self.probes_csv = format!("{}\n", monitors.probes_header());
+        }
+        if !monitors.reactions.is_empty() {
+            self.reactions_csv = format!("{}\n", monitors.reactions_header());
+        }
         if let Some(setup) = sim.contact_setup() {
             self.csv = format!("{STEPS_HEADER},{CONTACT_COLUMNS}\n");
             let scene = scene_box(sim.initial_positions(), setup);
@@ -510,6 +590,8 @@ pub const RUN_FILES: &[&str] = &[
     "steps_cg.png",
     "steps_residual.png",
     "steps_energy.png",
+    "probes.png",
+    "reactions.png",
 ];
 
 /// The frame number of a numbered output file (`frame_0012.vtu` → 12; also `.pvtu`,
@@ -528,6 +610,40 @@ pub fn frame_number(name: &str) -> Option<usize> {
     (digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit()))
         .then(|| digits.parse().ok())
         .flatten()
+}
+
+/// A per-frame CSV of a stopped run cut back to frames 0..=`last` (its header first, which must
+/// be `header`): a frame written after the checkpoint is written again.
+fn rows_up_to(path: &Path, header: &str, last: usize) -> Result<String> {
+    let problem = |what: &str| {
+        Error::parameter(
+            "resume",
+            format!("{}: {what} since the run stopped", path.display()),
+        )
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(header.trim_end()) {
+        return Err(problem("its header changed"));
+    }
+    let mut kept = format!("{}\n", header.trim_end());
+    let mut expected = 0;
+    for row in lines {
+        let frame = row.split(',').next().and_then(|f| f.parse::<usize>().ok());
+        match frame {
+            Some(f) if f == expected && f <= last => {
+                kept.push_str(row);
+                kept.push('\n');
+                expected += 1;
+            }
+            Some(f) if f > last => break,
+            _ => return Err(problem("its rows were changed")),
+        }
+    }
+    if expected != last + 1 {
+        return Err(problem("rows up to the checkpoint's frame went missing"));
+    }
+    Ok(kept)
 }
 
 /// The file a temporary file of ours is for: `.NAME.PID.tmp` (see `io::atomic_write`) → NAME.

@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[path = "cli/analyses.rs"]
+mod analyses;
 #[path = "common/beam24.rs"]
 mod beam24;
 #[path = "cli/contact.rs"]

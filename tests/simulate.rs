@@ -5,6 +5,9 @@ mod common;
 #[path = "simulate/modes.rs"]
 mod modes;
 
+#[path = "simulate/analyses.rs"]
+mod analyses;
+
 use common::{Collapse, carved_ball, rigid_distance};
 
 use std::path::Path;

@@ -108,7 +108,7 @@ def test_from_dict_bad_values():
         tetsim.Scene.from_dict(values)
     values = box_scene()
     values["solver"]["dt"] = "fast"
-    with raises(key="solver.dt", match="invalid type"):
+    with raises(key="solver.dt", match="not a number with a unit"):
         tetsim.Scene.from_dict(values)
 
 

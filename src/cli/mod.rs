@@ -3,6 +3,7 @@
 mod bench;
 mod check;
 mod compare;
+mod info;
 pub mod mesh;
 mod modes;
 #[cfg(feature = "mpi")]
@@ -49,6 +50,9 @@ enum Command {
     Check(check::CheckArgs),
     /// Time the cantilever workload of issue 8 at several mesh sizes.
     Bench(bench::BenchArgs),
+    /// Describe a scene without running it: mass, volume, wave speeds, the lowest frequency
+    /// (estimated) and suggested time steps.
+    Info(info::InfoArgs),
 }
 
 /// Log level from -q/-v (RUST_LOG overrides).
@@ -94,5 +98,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Compare(args) => compare::run(args, cli.quiet),
         Command::Bench(args) => bench::run(args, cli.quiet),
         Command::Check(args) => check::run(args),
+        Command::Info(args) => info::run(args).map(|()| ExitCode::SUCCESS),
     }
 }

@@ -437,6 +437,28 @@ fn draw(
     if scene.output.plots && last > 0 {
         written
             .extend(render::plot_steps(&out.join("steps.csv"), out).context("plotting steps.csv")?);
+        // SPEC §13: probes.csv and reactions.csv, when the run writes them.
+        for (csv, png, title, axis) in [
+            (
+                "probes.csv",
+                "probes.png",
+                "probe displacements",
+                "displacement [m]",
+            ),
+            (
+                "reactions.csv",
+                "reactions.png",
+                "reaction forces",
+                "force [N]",
+            ),
+        ] {
+            let csv = out.join(csv);
+            if csv.exists() {
+                let plot = render::plot_series(&csv, &out.join(png), title, axis)
+                    .with_context(|| format!("plotting {}", csv.display()))?;
+                written.push(plot);
+            }
+        }
     }
     Ok(written)
 }

@@ -81,6 +81,9 @@ pub struct IncrementalPotential {
     pattern_generations: Vec<u64>,
     pattern_generation: u64,
     scratch_pairs: Vec<(u32, u32)>,
+    /// The total force on the constrained components at the last evaluation (zero on free
+    /// ones), kept only when asked for (see [`IncrementalPotential::record_constrained_forces`]).
+    constrained: Option<Vec<Vec3>>,
 }
 
 /// The potential with the step context of the current solve: the linear solvers' [`System`].
@@ -106,7 +109,20 @@ impl IncrementalPotential {
             pattern_generations: Vec::new(),
             pattern_generation: 0,
             scratch_pairs: Vec::new(),
+            constrained: None,
         }
+    }
+
+    /// Keep the total force on the constrained components at every evaluation (off by
+    /// default): minus it is the reaction of the constraints ([`crate::monitor`]).
+    pub fn record_constrained_forces(&mut self, on: bool) {
+        self.constrained = on.then(Vec::new);
+    }
+
+    /// The total force of every term on the constrained components at the last evaluation (zero
+    /// on free components), N; empty unless recorded and evaluated.
+    pub fn constrained_forces(&self) -> &[Vec3] {
+        self.constrained.as_deref().unwrap_or(&[])
     }
 
     /// The generation number of the Hessian's pattern (see [`crate::linear::SystemPattern`]).
@@ -189,11 +205,26 @@ impl IncrementalPotential {
         }
         self.energies = energies;
         let free = ctx.free;
-        force
-            .par_iter_mut()
-            .zip(free.par_iter())
-            .with_min_len(CHUNK)
-            .for_each(|(f, m)| *f = f.component_mul(m));
+        match &mut self.constrained {
+            // The same pass splits the force: free components stay, constrained ones are kept.
+            Some(kept) => {
+                kept.resize(force.len(), Vec3::zeros());
+                force
+                    .par_iter_mut()
+                    .zip(free.par_iter().zip(kept.par_iter_mut()))
+                    .with_min_len(CHUNK)
+                    .for_each(|(f, (m, k))| {
+                        let on_free = f.component_mul(m);
+                        *k = *f - on_free;
+                        *f = on_free;
+                    });
+            }
+            None => force
+                .par_iter_mut()
+                .zip(free.par_iter())
+                .with_min_len(CHUNK)
+                .for_each(|(f, m)| *f = f.component_mul(m)),
+        }
         self.energies.iter().sum()
     }
 

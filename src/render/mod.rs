@@ -52,7 +52,7 @@ pub use crate::field::{
 pub use geometry::RenderMesh;
 pub use image::Image;
 pub use obstacles::ObstacleView;
-pub use plot::plot_steps;
+pub use plot::{plot_series, plot_steps};
 pub use run::{
     FrameSource, OwnedFrame, RunFrame, RunPictureParams, gif_delay_cs, render_run, render_run_from,
 };

@@ -155,6 +155,171 @@ pub fn plot_steps(csv_path: &Path, out_dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(written)
 }
 
+/// A per-frame table whose columns after `frame,time` are all numbers (probes.csv,
+/// reactions.csv, SPEC §13).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SeriesTable {
+    /// The `time` column (s; quasistatic: the load factor).
+    pub time: Vec<f64>,
+    /// Every other column after `frame,time`: (name, values).
+    pub columns: Vec<(String, Vec<f64>)>,
+}
+
+impl SeriesTable {
+    /// Parse the text of a `frame,time,...` CSV; `path` only names the file in errors.
+    pub fn parse(path: &Path, text: &str) -> Result<SeriesTable> {
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        let (_, header) = lines
+            .next()
+            .ok_or_else(|| Error::parse(path, Some(1), "empty file: expected a header line"))?;
+        let names: Vec<&str> = header.split(',').map(str::trim).collect();
+        if names.len() < 2 || names[0] != "frame" || names[1] != "time" {
+            return Err(Error::parse(
+                path,
+                Some(1),
+                "the header must start with frame,time",
+            ));
+        }
+        let mut table = SeriesTable {
+            time: Vec::new(),
+            columns: names[2..]
+                .iter()
+                .map(|n| (n.to_string(), Vec::new()))
+                .collect(),
+        };
+        for (i, line) in lines {
+            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+            if fields.len() != names.len() {
+                return Err(Error::parse(
+                    path,
+                    Some(i + 1),
+                    format!("{} fields, the header has {}", fields.len(), names.len()),
+                ));
+            }
+            let number = |s: &str| {
+                s.parse::<f64>()
+                    .map_err(|_| Error::parse(path, Some(i + 1), format!("not a number: {s:?}")))
+            };
+            table.time.push(number(fields[1])?);
+            for (column, field) in table.columns.iter_mut().zip(&fields[2..]) {
+                column.1.push(number(field)?);
+            }
+        }
+        Ok(table)
+    }
+}
+
+/// Plot every column of a `frame,time,...` CSV against time into `png` (probes.csv as
+/// probes.png, reactions.csv as reactions.png). Returns the path written.
+pub fn plot_series(csv_path: &Path, png: &Path, title: &str, y_label: &str) -> Result<PathBuf> {
+    let text = crate::io::read_text(csv_path)?;
+    let table = SeriesTable::parse(csv_path, &text)?;
+    register_font();
+    let mut buf = vec![255u8; 3 * (SIZE.0 * SIZE.1) as usize];
+    {
+        let area = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
+        let drawn: DrawResult = (|| {
+            area.fill(&WHITE)?;
+            series_plot(&table, &area, title, y_label)?;
+            area.present()?;
+            Ok(())
+        })();
+        drawn
+            .map_err(|e| Error::io(png, std::io::Error::other(format!("plotting failed: {e}"))))?;
+    }
+    Image {
+        width: SIZE.0,
+        height: SIZE.1,
+        pixels: buf,
+    }
+    .write_png(png)?;
+    Ok(png.to_path_buf())
+}
+
+/// Colours of [`series_plot`]'s lines, in column order (then again).
+const PALETTE: [RGBColor; 9] = [
+    BLUE,
+    ORANGE,
+    RGBColor(60, 160, 80),
+    RED,
+    RGBColor(140, 90, 180),
+    RGBColor(140, 95, 75),
+    RGBColor(220, 110, 180),
+    GREY,
+    RGBColor(30, 170, 190),
+];
+
+fn series_plot(t: &SeriesTable, area: &Area, title: &str, y_label: &str) -> DrawResult {
+    let finite = |v: &&f64| v.is_finite();
+    let lo_t = t
+        .time
+        .iter()
+        .filter(finite)
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let hi_t = t
+        .time
+        .iter()
+        .filter(finite)
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    let (x0, x1) = if !(lo_t.is_finite() && hi_t.is_finite()) {
+        (0.0, 1.0)
+    } else if hi_t - lo_t <= 0.0 {
+        (lo_t - 0.5, hi_t + 0.5)
+    } else {
+        (lo_t, hi_t)
+    };
+    let values = t.columns.iter().flat_map(|c| c.1.iter()).filter(finite);
+    let lo = values.clone().copied().fold(0.0, f64::min);
+    let hi = values.copied().fold(0.0, f64::max);
+    // Room above for the legend; a flat zero line still gets an axis.
+    let span = if hi > lo { hi - lo } else { 1.0 };
+    let (y0, y1) = (lo - 0.05 * span, hi + 0.35 * span);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, title_font(24.0))
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .light_line_style(RGBColor(236, 237, 240))
+        .bold_line_style(RGBColor(214, 217, 222))
+        .max_light_lines(4)
+        .x_desc("time [s] (quasistatic: load factor)")
+        .y_desc(y_label)
+        // A tick at zero may come out as ±1e-16 of the range: show it as 0.
+        .x_label_formatter(&|v| format_energy(snap(*v, x1 - x0)))
+        .y_label_formatter(&|v| format_energy(snap(*v, y1 - y0)))
+        .label_style(title_font(15.0))
+        .axis_desc_style(title_font(17.0))
+        .draw()?;
+    for (k, (name, values)) in t.columns.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let points: Vec<(f64, f64)> = t
+            .time
+            .iter()
+            .copied()
+            .zip(values.iter().copied())
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .collect();
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(2)))?
+            .label(name.as_str())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], colour.stroke_width(2)));
+    }
+    finish_legend(&mut chart)
+}
+
+/// `v`, or 0 when it is rounding next to an axis range of `span`.
+fn snap(v: f64, span: f64) -> f64 {
+    if v.abs() < 1e-9 * span.abs() { 0.0 } else { v }
+}
+
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 type DrawResult = std::result::Result<(), Box<dyn std::error::Error>>;
 type PlotFn = fn(&StepsTable, &Area) -> DrawResult;
@@ -495,6 +660,17 @@ elastic_energy,kinetic_energy,min_J,inverted_elements,wall_seconds,extra\n\
         let missing = "frame,time\n0,0\n";
         let err = StepsTable::parse(Path::new("s.csv"), missing).unwrap_err();
         assert!(err.to_string().contains("newton_iterations"), "{err}");
+    }
+
+    #[test]
+    fn series_tables_read_every_column_after_frame_and_time() {
+        let text = "frame,time,tip_x,tip_y\n0,0,0,0\n1,0.5,1e-3,-2\n";
+        let t = SeriesTable::parse(Path::new("p.csv"), text).unwrap();
+        assert_eq!(t.time, vec![0.0, 0.5]);
+        assert_eq!(t.columns[1], ("tip_y".to_string(), vec![0.0, -2.0]));
+        let short = SeriesTable::parse(Path::new("p.csv"), "frame,time,a\n0,0\n").unwrap_err();
+        assert!(short.to_string().starts_with("p.csv:2:"), "{short}");
+        assert!(SeriesTable::parse(Path::new("p.csv"), "time,frame\n").is_err());
     }
 
     #[test]

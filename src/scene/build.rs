@@ -23,6 +23,7 @@ use super::schema::{
     Generator, IntegratorName, MeshSpec, MotionSpec, OnFailureName, PreconditionerName, RegionSpec,
     Scene,
 };
+use super::units::{Unit, length_unit};
 
 impl Scene {
     /// Lamé parameters from (E, ν) or (μ, λ), with the range checks of each.
@@ -80,7 +81,13 @@ impl Scene {
                 if let Some(why) = crate::resources::memory_shortfall(read.mesh.tets.len() as f64) {
                     return Err(self.error_at(&key!["mesh", "file"], why));
                 }
-                Ok(read.mesh)
+                let mut mesh = read.mesh;
+                if let Some(unit) = self.length_unit(spec, at)? {
+                    for p in &mut mesh.positions {
+                        *p = p.map(|c| unit.to_si(c));
+                    }
+                }
+                Ok(mesh)
             }
             (None, Some(Generator::Box { min, max, cells })) => {
                 Ok(box_mesh(Vec3::from(*min), Vec3::from(*max), *cells))
@@ -90,6 +97,15 @@ impl Scene {
                 "give a mesh file or a generator",
             )),
         }
+    }
+
+    /// The unit of a mesh's `unit` key (None: metres already).
+    fn length_unit(&self, spec: &MeshSpec, at: &[Seg]) -> Result<Option<Unit>> {
+        spec.unit
+            .as_deref()
+            .map(length_unit)
+            .transpose()
+            .map_err(|e| self.error_at(&[at, &key!["unit"]].concat(), e))
     }
 
     /// The solver settings.
@@ -355,8 +371,14 @@ impl Scene {
         let mut v = vec![Vec3::zeros(); x.len()];
         if let Some(file) = &self.initial.positions {
             let first = bodies.vertices(0);
-            let given = crate::io::read_positions(&self.resolve(file), first.len())
+            let mut given = crate::io::read_positions(&self.resolve(file), first.len())
                 .map_err(|e| self.unreadable(&key!["initial", "positions"], e))?;
+            // In the mesh file's unit, like the mesh it lists the vertices of.
+            if let Some(unit) = self.length_unit(&self.mesh, &key!["mesh"])? {
+                for p in &mut given {
+                    *p = p.map(|c| unit.to_si(c));
+                }
+            }
             x[first].copy_from_slice(&given);
         }
         for b in 0..bodies.count() {
@@ -460,6 +482,7 @@ impl Simulation {
         let boundary =
             scene.build_boundary_of(&body.mesh, renumbering.as_ref(), Some(&membership))?;
         let initial = scene.initial_state_of(&body, renumbering.as_ref(), &bodies)?;
+        let monitors = scene.build_monitors(&body, &membership)?;
         let contact = scene.contact_setup()?.map(|setup| ContactSetup {
             body_names: bodies.names.clone(),
             vertex_body: membership.vertex_body.clone(),
@@ -474,7 +497,8 @@ impl Simulation {
         let sim = Simulation::new(body, boundary, params, initial)?
             .with_renumbering(renumbering)
             .with_bodies(bodies)
-            .with_damping(damping);
+            .with_damping(damping)
+            .with_monitors(monitors);
         match contact {
             Some(setup) => sim.with_contact(setup),
             None => Ok(sim),

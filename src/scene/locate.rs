@@ -135,24 +135,42 @@ impl<'t> Locator<'t> {
     /// Whether the text gives `path` itself (not only a table above it): `solver.rayleigh_mass`
     /// written out, as opposed to left at its default.
     pub(crate) fn has(&self, path: &[Seg]) -> bool {
-        let Some(root) = &self.root else {
-            return false;
-        };
-        let mut table: &DeTable = root.get_ref();
-        for (i, seg) in path.iter().enumerate() {
-            let Seg::Key(key) = *seg else { return false };
-            let Some((_, value)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == key) else {
-                return false;
+        self.value(path).is_some()
+    }
+
+    /// The value at `path`, when the text has it.
+    fn value(&self, path: &[Seg]) -> Option<&DeValue<'t>> {
+        let root = self.root.as_ref()?;
+        let mut table: Option<&DeTable> = Some(root.get_ref());
+        let mut value: Option<&Spanned<DeValue>> = None;
+        for seg in path {
+            let next = match (*seg, table, value.map(|v| v.get_ref())) {
+                (Seg::Key(key), Some(t), _) => t
+                    .iter()
+                    .find(|(k, _)| k.get_ref().as_ref() == key)
+                    .map(|(_, v)| v),
+                (Seg::Index(n), _, Some(DeValue::Array(items))) => items.get(n),
+                _ => None,
             };
-            if i + 1 == path.len() {
-                return true;
-            }
-            match value.get_ref() {
-                DeValue::Table(t) => table = t,
-                _ => return false,
-            }
+            let next = next?;
+            value = Some(next);
+            table = match next.get_ref() {
+                DeValue::Table(t) => Some(t),
+                _ => None,
+            };
         }
-        false
+        value.map(|v| v.get_ref())
+    }
+
+    /// Whether the value at `path` is written as a string (`until = "2 s"`): for keys whose
+    /// meaning a unit would change (a load factor).
+    pub(crate) fn is_string(&self, path: &[Seg]) -> bool {
+        matches!(self.value(path), Some(DeValue::String(_)))
+    }
+
+    /// Whether the value at `path` is a table (an entry of `[[fixed]]`, not of `[0, 1, 2]`).
+    pub(crate) fn is_table(&self, path: &[Seg]) -> bool {
+        matches!(self.value(path), Some(DeValue::Table(_)))
     }
 
     /// 1-based line and column of `path` (see [`Locator::span`]); (1, 1) when it is not there.

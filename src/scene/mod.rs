@@ -18,7 +18,9 @@
 mod bodies;
 mod build;
 pub(crate) mod locate;
+mod monitors;
 mod schema;
+pub mod units;
 mod validate;
 
 use std::fmt::Display;
@@ -27,11 +29,13 @@ use std::path::{Path, PathBuf};
 pub use schema::{
     BodySpec, BoxSpec, Component, ContactSpec, FixedSpec, Generator, InitialSpec, IntegratorName,
     LoadSpec, MaterialSpec, MeshSpec, MotionSpec, ObstacleEntry, OnFailureName, OutputSpec,
-    PlaneSpec, PreconditionerName, RegionSpec, Scene, SolverSpec, SphereSpec, VolumeSpec,
+    PlaneSpec, PreconditionerName, ProbeSpec, RegionSpec, Scene, SolverSpec, SphereSpec,
+    VolumeSpec,
 };
 
 use crate::error::{Error, Result};
 use locate::{Dotted, Locator, Seg, line_column};
+pub(crate) use validate::body_names;
 
 /// The built-in default scene (also `scenes/default.toml`, embedded so they never diverge).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
@@ -64,9 +68,17 @@ impl Scene {
             let offset = e.span().map(|s| s.start);
             let (line, column) = offset.map_or((1, 1), |o| line_column(text, o));
             let at = Locator::new(text);
-            let key = offset.map(|o| at.path_at(o)).unwrap_or_default();
+            let mut key = offset.map(|o| at.path_at(o)).unwrap_or_default();
             // serde quotes the offending value whole (`unknown variant `…``): clip long words.
-            let message = crate::error::clip_words(e.message().trim());
+            let mut message = crate::error::clip_words(e.message().trim());
+            // An entry of a plain array (`gravity = [0, "9.81 m/s", 0]`): the key, and which
+            // entry in words (`[[gravity]] #2` would read as an array of tables).
+            if let Some(&Seg::Index(n)) = key.last()
+                && !at.is_table(&key)
+            {
+                key.pop();
+                message = format!("entry {} of the array: {message}", n + 1);
+            }
             let message = message.as_str();
             let key = (!key.is_empty()).then(|| Dotted(&key).to_string());
             Error::Scene {
@@ -153,3 +165,6 @@ mod tests {
 
 #[cfg(test)]
 mod contact_tests;
+
+#[cfg(test)]
+mod analysis_tests;

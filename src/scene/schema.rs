@@ -10,6 +10,8 @@ use crate::integrator::SolverParams;
 use crate::material::{Definiteness, ModelKind};
 use crate::mesh::ordering::VertexOrder;
 
+use super::units;
+
 /// A parsed, validated scene. Every field mirrors a TOML table or key of SPEC §10.
 ///
 /// Defaults are per field (not `Scene::default()`, which is the built-in default *scene*).
@@ -18,7 +20,7 @@ use crate::mesh::ordering::VertexOrder;
 pub struct Scene {
     /// Gravitational acceleration, m/s². Default [0, −9.81, 0].
     #[serde(default = "default_gravity")]
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Acceleration>")]
     pub gravity: [f64; 3],
     /// `[mesh]`.
     #[serde(default)]
@@ -55,6 +57,10 @@ pub struct Scene {
     /// `[contact]`: contact settings (SPEC §11); the table alone turns contact on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact: Option<ContactSpec>,
+    /// `[[probe]]`: points whose displacement goes to probes.csv every frame (SPEC §13). Left
+    /// out of the manifest's parameters when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probe: Vec<ProbeSpec>,
     /// The scene file (for messages); not a TOML key.
     #[serde(skip)]
     pub path: PathBuf,
@@ -77,14 +83,6 @@ where
     let n = v.len();
     <[T; 3]>::try_from(v)
         .map_err(|_| serde::de::Error::invalid_length(n, &"exactly 3 entries [x, y, z]"))
-}
-
-/// [`three`] for an optional key.
-fn option_three<'de, D>(d: D) -> Result<Option<[f64; 3]>, D::Error>
-where
-    D: serde::Deserializer<'de>,
-{
-    three(d).map(Some)
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -111,19 +109,22 @@ pub struct BodySpec {
     #[serde(default)]
     pub material: MaterialSpec,
     /// Scale of the rest mesh about the origin (a change of units), > 0. Default 1.
-    #[serde(default = "one")]
+    #[serde(default = "one", deserialize_with = "units::scalar::<_, units::Ratio>")]
     pub scale: f64,
     /// Rotation of the (scaled) rest mesh about `axis` through its centroid, degrees.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "units::scalar::<_, units::Degrees>")]
     pub rotate_degrees: f64,
     /// Rotation axis. Default [0, 0, 1].
-    #[serde(default = "z_axis")]
+    #[serde(
+        default = "z_axis",
+        deserialize_with = "units::three::<_, units::Ratio>"
+    )]
     pub axis: [f64; 3],
     /// Translation after scaling and rotating, m.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "units::three::<_, units::Length>")]
     pub translate: [f64; 3],
     /// Initial velocity of its free vertices, m/s.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "units::three::<_, units::Velocity>")]
     pub velocity: [f64; 3],
 }
 
@@ -148,6 +149,26 @@ pub struct MeshSpec {
     /// Default "body0".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// The length unit of the mesh file's coordinates (and, for the top-level `[mesh]`, of
+    /// `[initial] positions`): "mm", "cm", "µm", "m", … (see `units`). Default: metres.
+    /// Outputs stay SI. A generator's `min` and `max` take units in their own values instead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+}
+
+/// `[[probe]]`: a rest position whose displacement (interpolated linearly in the tet holding
+/// it) goes to probes.csv as `<name>_x,<name>_y,<name>_z` every frame.
+#[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    /// The column prefix: letters, digits, `_`, `-`, `.`; unique among the probes.
+    pub name: String,
+    /// The point at rest (after the bodies are placed), m.
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
+    pub point: [f64; 3],
+    /// Only look in this body (its `[[body]] name` or `[mesh] name`). Default: every body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body: Option<String>,
 }
 
 /// Built-in mesh generators.
@@ -157,10 +178,10 @@ pub enum Generator {
     /// A box of `cells` cubes, each split into 6 Kuhn tets; face groups xmin … zmax.
     Box {
         /// Lower corner, m.
-        #[serde(deserialize_with = "three")]
+        #[serde(deserialize_with = "units::three::<_, units::Length>")]
         min: [f64; 3],
         /// Upper corner, m.
-        #[serde(deserialize_with = "three")]
+        #[serde(deserialize_with = "units::three::<_, units::Length>")]
         max: [f64; 3],
         /// Cubes along x, y, z.
         #[serde(deserialize_with = "three")]
@@ -177,14 +198,19 @@ pub struct MaterialSpec {
     /// "st-venant-kirchhoff", "mooney-rivlin", "linear".
     pub model: ModelKind,
     /// Young's modulus E, Pa. Default 1e5 (when neither E, ν nor μ, λ are given).
+    #[serde(deserialize_with = "units::optional::<_, units::Pressure>")]
     pub youngs_modulus: Option<f64>,
     /// Poisson ratio ν, in (−1, 0.5). Default 0.3.
+    #[serde(deserialize_with = "units::optional::<_, units::Ratio>")]
     pub poisson_ratio: Option<f64>,
     /// Lamé μ, Pa (instead of E, ν).
+    #[serde(deserialize_with = "units::optional::<_, units::Pressure>")]
     pub mu: Option<f64>,
     /// Lamé λ, Pa (instead of E, ν).
+    #[serde(deserialize_with = "units::optional::<_, units::Pressure>")]
     pub lambda: Option<f64>,
     /// Density, kg/m³. Default 1000.
+    #[serde(deserialize_with = "units::scalar::<_, units::Density>")]
     pub density: f64,
 }
 
@@ -215,14 +241,19 @@ pub struct VolumeSpec {
     /// Constitutive model.
     pub model: Option<ModelKind>,
     /// Young's modulus, Pa.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Pressure>")]
     pub youngs_modulus: Option<f64>,
     /// Poisson ratio.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Ratio>")]
     pub poisson_ratio: Option<f64>,
     /// Lamé μ, Pa.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Pressure>")]
     pub mu: Option<f64>,
     /// Lamé λ, Pa.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Pressure>")]
     pub lambda: Option<f64>,
     /// Density, kg/m³.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Density>")]
     pub density: Option<f64>,
 }
 
@@ -234,19 +265,19 @@ pub enum RegionSpec {
     /// Axis-aligned box, inclusive.
     Box {
         /// Lower corner, m.
-        #[serde(deserialize_with = "three")]
+        #[serde(deserialize_with = "units::three::<_, units::Length>")]
         min: [f64; 3],
         /// Upper corner, m.
-        #[serde(deserialize_with = "three")]
+        #[serde(deserialize_with = "units::three::<_, units::Length>")]
         max: [f64; 3],
     },
     /// On the plane or on the side its normal points to.
     Plane {
         /// A point on the plane, m.
-        #[serde(deserialize_with = "three")]
+        #[serde(deserialize_with = "units::three::<_, units::Length>")]
         point: [f64; 3],
         /// Normal.
-        #[serde(deserialize_with = "three")]
+        #[serde(deserialize_with = "units::three::<_, units::Ratio>")]
         normal: [f64; 3],
     },
     /// 0-based vertex indices.
@@ -260,15 +291,16 @@ pub enum RegionSpec {
 #[serde(deny_unknown_fields, default)]
 pub struct MotionSpec {
     /// Translation, m. Default 0.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
     pub translate: [f64; 3],
     /// Rotation angle, degrees. Default 0.
+    #[serde(deserialize_with = "units::scalar::<_, units::Degrees>")]
     pub rotate_degrees: f64,
     /// Rotation axis. Default [1, 0, 0].
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Ratio>")]
     pub axis: [f64; 3],
     /// A point on the axis, m. Default the origin.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
     pub center: [f64; 3],
 }
 
@@ -301,10 +333,12 @@ pub struct ObstacleEntry {
     /// (its boundary).
     pub mesh: Option<PathBuf>,
     /// Coulomb coefficient against this obstacle, ≥ 0. Default `[contact] friction`.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Ratio>")]
     pub friction: Option<f64>,
     /// Scripted rigid motion, as for `[[fixed]]`. Default: at rest.
     pub motion: Option<MotionSpec>,
     /// Ramp duration of the motion, s (backward Euler). Default: the whole run.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Time>")]
     pub duration: Option<f64>,
 }
 
@@ -313,10 +347,10 @@ pub struct ObstacleEntry {
 #[serde(deny_unknown_fields)]
 pub struct PlaneSpec {
     /// A point on the plane, m.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
     pub point: [f64; 3],
     /// The normal (any non-zero length), towards the side bodies live on.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Ratio>")]
     pub normal: [f64; 3],
 }
 
@@ -325,10 +359,10 @@ pub struct PlaneSpec {
 #[serde(deny_unknown_fields)]
 pub struct BoxSpec {
     /// Lower corner, m.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
     pub min: [f64; 3],
     /// Upper corner, m.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
     pub max: [f64; 3],
 }
 
@@ -337,9 +371,10 @@ pub struct BoxSpec {
 #[serde(deny_unknown_fields)]
 pub struct SphereSpec {
     /// Center, m.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Length>")]
     pub center: [f64; 3],
     /// Radius, m (> 0).
+    #[serde(deserialize_with = "units::scalar::<_, units::Length>")]
     pub radius: f64,
 }
 
@@ -349,8 +384,10 @@ pub struct SphereSpec {
 pub struct ContactSpec {
     /// d̂, m (> 0): the gap below which contact acts. Default: 1e-3 × the scene's bounding-box
     /// diagonal.
+    #[serde(deserialize_with = "units::optional::<_, units::Length>")]
     pub distance: Option<f64>,
     /// Coulomb coefficient between bodies and for obstacles without their own, ≥ 0. Default 0.
+    #[serde(deserialize_with = "units::scalar::<_, units::Ratio>")]
     pub friction: f64,
     /// Self-contact inside each body. Default true.
     #[serde(rename = "self")]
@@ -383,6 +420,10 @@ pub enum Component {
 #[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FixedSpec {
+    /// A name: the constraint's total reaction force on the body (N) goes to reactions.csv as
+    /// `<name>_fx,<name>_fy,<name>_fz` every frame. Unique among the `[[fixed]]` entries.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Which vertices.
     pub region: RegionSpec,
     /// Only this body's part (its `[[body]] name` or `[mesh] name`). Default: every body.
@@ -393,9 +434,11 @@ pub struct FixedSpec {
     /// Prescribed motion. Default: held in place.
     pub motion: Option<MotionSpec>,
     /// Ramp duration, s (backward Euler). Default: the whole run.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Time>")]
     pub duration: Option<f64>,
     /// Release time, s (quasistatic: load factor): after it the vertices are free. Default:
     /// never released.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Time>")]
     pub until: Option<f64>,
 }
 
@@ -409,15 +452,19 @@ pub struct LoadSpec {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body: Option<String>,
     /// Force per unit rest area on the region's boundary faces, Pa.
-    #[serde(default, deserialize_with = "option_three")]
+    #[serde(
+        default,
+        deserialize_with = "units::optional_three::<_, units::Pressure>"
+    )]
     pub traction: Option<[f64; 3]>,
     /// Total force spread over the region's boundary faces by area (or its vertices), N.
-    #[serde(default, deserialize_with = "option_three")]
+    #[serde(default, deserialize_with = "units::optional_three::<_, units::Force>")]
     pub total_force: Option<[f64; 3]>,
     /// Force on each selected vertex, N.
-    #[serde(default, deserialize_with = "option_three")]
+    #[serde(default, deserialize_with = "units::optional_three::<_, units::Force>")]
     pub point_force: Option<[f64; 3]>,
     /// Ramp duration, s (backward Euler). Default: the whole run; 0: at once.
+    #[serde(default, deserialize_with = "units::optional::<_, units::Time>")]
     pub duration: Option<f64>,
 }
 
@@ -429,7 +476,7 @@ pub struct InitialSpec {
     /// the mesh); relative to the scene. Default: the rest positions.
     pub positions: Option<PathBuf>,
     /// Initial velocity of every free vertex, m/s. Default 0.
-    #[serde(deserialize_with = "three")]
+    #[serde(deserialize_with = "units::three::<_, units::Velocity>")]
     pub velocity: [f64; 3],
 }
 
@@ -440,28 +487,41 @@ pub struct SolverSpec {
     /// "backward-euler" (default) or "quasistatic".
     pub integrator: IntegratorName,
     /// Seconds per frame. Default 1/30.
+    #[serde(deserialize_with = "units::scalar::<_, units::Time>")]
     pub dt: f64,
     /// Frames (backward Euler) or load steps (quasistatic). Default 60.
     pub frames: usize,
     /// Time steps per frame. Default 1.
     pub substeps: usize,
     /// Rayleigh stiffness damping γ, s. Default 0.
+    #[serde(deserialize_with = "units::scalar::<_, units::Time>")]
     pub rayleigh_stiffness: f64,
     /// Rayleigh mass damping α, 1/s. Default 0.
+    #[serde(deserialize_with = "units::scalar::<_, units::Frequency>")]
     pub rayleigh_mass: f64,
     /// Damping ratio ζ (SPEC §13): sets `rayleigh_mass` and `rayleigh_stiffness` so that
     /// motion at both `damping_frequencies` is damped by ζ. Default: none.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "units::optional::<_, units::Ratio>"
+    )]
     pub damping_ratio: Option<f64>,
     /// f₁ < f₂ (Hz) where the damping ratio holds exactly. Default: the body's lowest elastic
     /// mode and ten times its frequency.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "units::optional_two::<_, units::Frequency>"
+    )]
     pub damping_frequencies: Option<[f64; 2]>,
     /// Newton tolerance relative to the step's first residual. Default 1e-6.
+    #[serde(deserialize_with = "units::scalar::<_, units::Ratio>")]
     pub newton_tolerance: f64,
     /// Newton iterations per step. Default 20.
     pub newton_max_iterations: usize,
     /// CG tolerance relative to the right-hand side. Default 1e-6.
+    #[serde(deserialize_with = "units::scalar::<_, units::Ratio>")]
     pub cg_tolerance: f64,
     /// CG iterations per solve. Default 2000.
     pub cg_max_iterations: usize,
@@ -588,8 +648,10 @@ pub struct OutputSpec {
     /// Every k-th frame goes into the GIF (the last frame always does). Default 1.
     pub gif_stride: usize,
     /// Camera azimuth about the up (+y) axis, degrees. Default −35.
+    #[serde(deserialize_with = "units::scalar::<_, units::Degrees>")]
     pub azimuth: f64,
     /// Camera elevation above the horizon, degrees. Default 22.
+    #[serde(deserialize_with = "units::scalar::<_, units::Degrees>")]
     pub elevation: f64,
     /// Write 0 in steps.csv's wall_seconds column, so that every output file is byte-identical
     /// across runs and thread counts (the times go to timings.csv either way). Default false.

@@ -93,6 +93,8 @@ pub(super) fn validate(scene: &Scene) -> Result<()> {
     if let Some(contact) = &scene.contact {
         v.contact(contact);
     }
+    v.probes();
+    v.fixed_names();
     v.solver(&scene.solver);
     v.output(&scene.output);
     v.finish()
@@ -107,7 +109,7 @@ struct Validator<'s> {
 
 /// `base` followed by `tail`: a key path inside a table or an entry.
 /// Every body's name, body 0 first (defaults filled in).
-pub(super) fn body_names(scene: &Scene) -> Vec<String> {
+pub(crate) fn body_names(scene: &Scene) -> Vec<String> {
     std::iter::once(scene.mesh.name.clone().unwrap_or_else(|| "body0".into()))
         .chain(
             scene
@@ -250,6 +252,79 @@ impl Validator<'_> {
                 }
             }
             (Some(_), None) => {}
+        }
+        if let Some(unit) = &mesh.unit {
+            let key = join(at, &key!["unit"]);
+            if let Err(e) = super::units::length_unit(unit) {
+                self.fail(&key, e);
+            } else if mesh.generator.is_some() {
+                self.fail(
+                    &key,
+                    "a unit applies to a mesh file; a generator's min and max take units in \
+                     their own values (min = [\"0 mm\", \"0 mm\", \"0 mm\"])",
+                );
+            }
+        }
+    }
+
+    /// A name that becomes CSV column names (`tip` → `tip_x`): 1 to 64 of letters, digits,
+    /// `_`, `-`, `.`, so that no column needs quoting.
+    fn column_name(&mut self, key: &[Seg], name: &str) -> bool {
+        let ok = (1..=64).contains(&name.len())
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+        if !ok {
+            self.fail(
+                key,
+                format!(
+                    "\"{}\": a name here needs 1 to 64 letters, digits, '_', '-' or '.' (it names \
+                     CSV columns)",
+                    crate::error::clip(name)
+                ),
+            );
+        }
+        ok
+    }
+
+    /// `[[probe]]` entries: usable unique names, finite points, known bodies.
+    fn probes(&mut self) {
+        let scene = self.scene;
+        for (i, p) in scene.probe.iter().enumerate() {
+            let base = key!["probe", i];
+            let at = |k: &'static str| join(&base, &key![k]);
+            if self.column_name(&at("name"), &p.name)
+                && scene.probe[..i].iter().any(|q| q.name == p.name)
+            {
+                self.fail(
+                    &at("name"),
+                    format!(
+                        "\"{}\" names two probes: every probe needs its own name",
+                        p.name
+                    ),
+                );
+            }
+            self.finite3(&at("point"), p.point, "m");
+            self.body_ref(&at("body"), p.body.as_ref());
+        }
+    }
+
+    /// `[[fixed]] name`s: usable and unique (each names three reactions.csv columns).
+    fn fixed_names(&mut self) {
+        let fixed = &self.scene.fixed;
+        for (i, f) in fixed.iter().enumerate() {
+            let Some(name) = &f.name else { continue };
+            let key = key!["fixed", i, "name"];
+            if self.column_name(&key, name)
+                && fixed[..i].iter().any(|g| g.name.as_ref() == Some(name))
+            {
+                self.fail(
+                    &key,
+                    format!(
+                        "\"{name}\" names two [[fixed]] entries: every named constraint needs its own name"
+                    ),
+                );
+            }
         }
     }
 
@@ -481,7 +556,18 @@ impl Validator<'_> {
             self.non_negative(&join(&base, &key!["duration"]), d, "s");
         }
         if let Some(t) = fixed.until {
-            self.non_negative(&join(&base, &key!["until"]), t, "s, or a load factor");
+            let key = join(&base, &key!["until"]);
+            self.non_negative(&key, t, "s, or a load factor");
+            // Quasistatic runs read it as a load factor: a time unit would be silently wrong.
+            if self.scene.solver.integrator == super::schema::IntegratorName::Quasistatic
+                && self.at.is_string(&key)
+            {
+                self.fail(
+                    &key,
+                    "a quasistatic run reads until as a load factor (0 to 1), which has no \
+                     unit: give a plain number",
+                );
+            }
         }
     }
 

@@ -270,3 +270,56 @@ fn a_picture_that_cannot_be_written_costs_the_pictures_not_the_run() {
     let rows = std::fs::read_to_string(out_dir.join("steps.csv")).unwrap();
     assert_eq!(rows.lines().count(), 5);
 }
+
+#[test]
+fn probes_and_reactions_continue_after_a_kill_and_go_with_a_new_run() {
+    // SPEC §13 files under SPEC §14: a run killed and resumed writes the probes.csv and
+    // reactions.csv of a run never stopped (a row written after the checkpoint is written again).
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tetsim::scene::DEFAULT_SCENE
+        .replace(
+            "[[fixed]]\n",
+            "[[probe]]\nname = \"tip\"\npoint = [\"4 m\", \"500 mm\", 0.5]\n\n[[fixed]]\nname = \"clamp\"\n",
+        )
+        .replace("dir = \"out\"", "dir = \"whole\"");
+    assert!(scene.contains("name = \"clamp\""));
+    std::fs::write(dir.path().join("s.toml"), &scene).unwrap();
+    let args = [
+        "run",
+        "s.toml",
+        "--frames",
+        "20",
+        "--deterministic",
+        "--no-pictures",
+    ];
+    let whole = tetsim(dir.path(), &[&args[..], &["--out", "whole"]].concat());
+    assert!(whole.status.success(), "{}", stderr(&whole));
+
+    let run = dir.path().join("stopped");
+    let mut child = spawn(dir.path(), &[&args[..], &["--out", "stopped"]].concat());
+    wait_for(&mut child, &run.join("frame_0006.vtu"));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert_eq!(manifest(&run)["status"], "running");
+    let last = tetsim(dir.path(), &["run", "--resume", "stopped"]);
+    assert!(last.status.success(), "{}", stderr(&last));
+    let whole_dir = dir.path().join("whole");
+    for name in ["probes.csv", "reactions.csv", "steps.csv"] {
+        let a = std::fs::read(whole_dir.join(name)).unwrap();
+        let b = std::fs::read(run.join(name)).unwrap();
+        assert!(a == b, "{name} differs from the run never stopped");
+        assert_eq!(String::from_utf8_lossy(&a).lines().count(), 22, "{name}");
+    }
+    let m = manifest(&run);
+    assert!(m["outputs"]["files"]["probes.csv"].is_string(), "{m}");
+    assert_eq!(m["outputs"], manifest(&whole_dir)["outputs"]);
+
+    // A run without probes in the same folder leaves no probes.csv of the earlier one.
+    let plain = tetsim(
+        dir.path(),
+        &["run", "--frames", "2", "--out", "whole", "--no-pictures"],
+    );
+    assert!(plain.status.success(), "{}", stderr(&plain));
+    assert!(!whole_dir.join("probes.csv").exists());
+    assert!(!whole_dir.join("reactions.csv").exists());
+}
