@@ -508,6 +508,42 @@ fn plots_of_steps_are_written() {
     assert!(missing.to_string().contains("nope.csv"), "{missing}");
 }
 
+/// probes.csv and reactions.csv (SPEC §13) are plotted against time, one coloured line per
+/// column, with text; a malformed file is an error naming it and the line.
+#[test]
+fn plots_of_probes_and_reactions_are_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("probes.csv");
+    std::fs::write(
+        &csv,
+        "frame,time,tip_x,tip_y,tip_z\n0,0,0,0,0\n1,0.5,0.01,-0.2,0\n2,1,0.02,-0.35,0.001\n",
+    )
+    .unwrap();
+    let png = dir.path().join("probes.png");
+    let written =
+        render::plot_series(&csv, &png, "probe displacements", "displacement [m]").unwrap();
+    assert_eq!(written, png);
+    let img = Image::decode_png(&std::fs::read(&png).unwrap()).unwrap();
+    assert_eq!((img.width, img.height), (900, 500));
+    let count = |want: [u8; 3]| {
+        img.pixels
+            .chunks(3)
+            .filter(|c| (0..3).all(|k| c[k].abs_diff(want[k]) < 8))
+            .count()
+    };
+    // The first two columns' colours (blue, orange) are drawn, and there is text.
+    assert!(count([45, 105, 175]) > 100 && count([225, 120, 30]) > 100);
+    let dark = img
+        .pixels
+        .chunks(3)
+        .filter(|c| c.iter().all(|&v| v < 90))
+        .count();
+    assert!(dark > 500, "{dark} dark pixels (no text?)");
+    std::fs::write(&csv, "frame,time,tip_x\n0,0,0\n1,0.5\n").unwrap();
+    let err = render::plot_series(&csv, &png, "t", "y").unwrap_err();
+    assert!(err.to_string().contains("probes.csv:3:"), "{err}");
+}
+
 /// Bad input is an error, not a panic: wrong lengths, zero size.
 #[test]
 fn mismatched_input_is_an_error() {
