@@ -60,7 +60,8 @@ fn stacked(gap: f64, angle: f64, shift: f64) -> (TetMesh, Vec<u32>) {
     (mesh, body)
 }
 
-fn elastic(mesh: &TetMesh) -> crate::elastic::ElasticBody {
+/// A soft Neo-Hookean body (E = 1e5 Pa, ν = 0.3, 1000 kg/m³) on `mesh`.
+pub(super) fn elastic(mesh: &TetMesh) -> crate::elastic::ElasticBody {
     crate::elastic::ElasticBody::new(
         mesh.clone(),
         crate::Model::new(

@@ -1,5 +1,6 @@
 //! The contact term against finite differences, for every obstacle shape.
 
+use super::body_tests::elastic;
 use super::*;
 use crate::boundary::Motion;
 use crate::contact::ObstacleSpec;
@@ -62,15 +63,7 @@ fn contact_term_derivatives_match_finite_differences_for_every_shape() {
             })
             .collect();
         let params = SolverParams::default();
-        let body = crate::elastic::ElasticBody::new(
-            mesh.clone(),
-            crate::Model::new(
-                crate::ModelKind::NeoHookean,
-                crate::Lame::from_young_poisson(1e5, 0.3),
-            ),
-            1000.0,
-        )
-        .unwrap();
+        let body = elastic(&mesh);
         let zeros = vec![Vec3::zeros(); n];
         let ctx = StepContext {
             body: &body,
@@ -154,15 +147,7 @@ fn barrier_stiffness_is_balanced_against_the_load_once_a_step() {
         },
         ..Default::default()
     };
-    let body = crate::elastic::ElasticBody::new(
-        mesh.clone(),
-        crate::Model::new(
-            crate::ModelKind::NeoHookean,
-            crate::Lame::from_young_poisson(1e5, 0.3),
-        ),
-        1000.0,
-    )
-    .unwrap();
+    let body = elastic(&mesh);
     let params = SolverParams::default();
     let zeros = vec![Vec3::zeros(); n];
     let free = vec![Vec3::repeat(1.0); n];
