@@ -16,7 +16,9 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::linear::sparse::{BlockCsr, BlockPattern};
-use crate::material::{Definiteness, DiagonalPieces, Model, Tangent};
+use crate::material::{
+    DampedTangent, DampingStiffness, Definiteness, DiagonalPieces, Model, Tangent,
+};
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
 
@@ -405,14 +407,155 @@ impl ElasticBody {
                 .for_each(|(t, a)| t.project_keeping_exact(a));
             lin.exact_active = false;
         }
-        lin.clamped_tets = lin
-            .tangents
-            .iter()
-            .filter(|t| t.clamped_pieces() > 0)
-            .count();
-        lin.strongly_clamped_tets = lin.tangents.iter().filter(|t| t.strongly_clamped()).count();
-        lin.inverted_tets = lin.tangents.iter().filter(|t| t.is_inverted()).count();
+        lin.tangents_pending = false;
+        lin.count_tets();
         lin.chunk_energy.iter().sum()
+    }
+
+    /// [`ElasticBody::linearize_into`] with Rayleigh stiffness damping: also write
+    /// `kv = K_d(x)·v` (overwrite), K_d the damping stiffness of `damping` at x. The tangents
+    /// `lin` keeps for Newton are those of `K_n + w·K_d` (K_n by `lin`'s definiteness strategy,
+    /// w = `damping.weight`) at `x + damping.shift·v`, so the stiffness products and matrices
+    /// made from `lin` are Newton's whole (elastic + damping) tangent. One SVD per tet, two with
+    /// a shift: [`ElasticBody::damped_forces_into`], then [`ElasticBody::damped_tangents_into`].
+    pub fn linearize_damped_into(
+        &self,
+        x: &[Vec3],
+        damping: &Damping<'_>,
+        lin: &mut Linearization,
+        forces: &mut [Vec3],
+        kv: &mut [Vec3],
+    ) -> f64 {
+        let energy = self.damped_forces_into(x, damping, lin, forces, kv);
+        self.damped_tangents_into(x, damping, lin);
+        energy
+    }
+
+    /// The forces half of [`ElasticBody::linearize_damped_into`]: energy, `forces` and `kv`
+    /// (overwritten). Without a shift Newton's tangents come from the same SVD and are filled
+    /// too; with one they are left for [`ElasticBody::damped_tangents_into`] (an iterate that
+    /// turns out converged, or a rejected line-search trial, never needs them).
+    pub fn damped_forces_into(
+        &self,
+        x: &[Vec3],
+        damping: &Damping<'_>,
+        lin: &mut Linearization,
+        forces: &mut [Vec3],
+        kv: &mut [Vec3],
+    ) -> f64 {
+        assert_eq!(x.len(), self.vertex_count());
+        assert_eq!(damping.velocities.len(), self.vertex_count());
+        assert_eq!(kv.len(), self.vertex_count());
+        assert_eq!(lin.tangents.len(), self.tet_count());
+        if lin.damping.len() != self.tet_count() {
+            lin.damping = vec![[Vec3::zeros(); 4]; self.tet_count()];
+        }
+        let how = damping.tangent(lin.definiteness);
+        let shifted = damping.shift != 0.0;
+        // One tet: its force and K_d·v slots; returns W·Ψ and, without a shift, Newton's
+        // tangent and `adaptive`'s exact pieces.
+        let kernel = |t: usize, slot: &mut TetVectors, kv: &mut TetVectors| {
+            let (bm, w) = (&self.bm[t], self.volume[t]);
+            let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * bm;
+            let f = self.deformation_gradient(x, t);
+            let (psi, stress, dp, tangent) = if shifted {
+                let (psi, stress, dp) = self.model_of(t).damping_stress(&f, &df_v, how.damping);
+                (psi, stress, dp, None)
+            } else {
+                let e = self.model_of(t).evaluate_damped(&f, &df_v, &how);
+                (e.psi, e.stress, e.damping, Some((e.tangent, e.exact)))
+            };
+            *slot = tet_forces(&stress, bm, w);
+            // K_d·v = −(the force differential along v), as in `apply_stiffness`.
+            *kv = tet_forces(&(-dp), bm, w);
+            (w * psi, tangent)
+        };
+        let chunks = lin
+            .tangents
+            .par_chunks_mut(CHUNK)
+            .zip(lin.buffer.par_chunks_mut(CHUNK))
+            .zip(lin.damping.par_chunks_mut(CHUNK))
+            .zip(lin.chunk_energy.par_iter_mut())
+            .enumerate();
+        if lin.alternate.is_empty() {
+            chunks.for_each(|(c, (((tangents, buffer), kv), energy))| {
+                let mut sum = 0.0;
+                for (k, ((tangent, slot), kv)) in
+                    tangents.iter_mut().zip(buffer).zip(kv).enumerate()
+                {
+                    let (psi, tan) = kernel(c * CHUNK + k, slot, kv);
+                    sum += psi;
+                    if let Some((tan, _)) = tan {
+                        *tangent = tan;
+                    }
+                }
+                *energy = sum;
+            });
+        } else {
+            chunks.zip(lin.alternate.par_chunks_mut(CHUNK)).for_each(
+                |((c, (((tangents, buffer), kv), energy)), alternate)| {
+                    let mut sum = 0.0;
+                    for (k, (((tangent, slot), kv), alternate)) in tangents
+                        .iter_mut()
+                        .zip(buffer)
+                        .zip(kv)
+                        .zip(alternate)
+                        .enumerate()
+                    {
+                        let (psi, tan) = kernel(c * CHUNK + k, slot, kv);
+                        sum += psi;
+                        if let Some((tan, exact)) = tan {
+                            *tangent = tan;
+                            *alternate = exact;
+                        }
+                    }
+                    *energy = sum;
+                },
+            );
+        }
+        self.incidence.gather(&lin.buffer, forces, false);
+        self.incidence.gather(&lin.damping, kv, false);
+        lin.tangents_pending = shifted;
+        if !shifted {
+            lin.exact_active = false;
+            lin.count_tets();
+        }
+        lin.chunk_energy.iter().sum()
+    }
+
+    /// The tangents half of [`ElasticBody::linearize_damped_into`]: Newton's tangents at
+    /// `x + damping.shift·v`, if [`ElasticBody::damped_forces_into`] left them (`x` and
+    /// `damping` must be the same as there). Nothing to do otherwise.
+    pub fn damped_tangents_into(&self, x: &[Vec3], damping: &Damping<'_>, lin: &mut Linearization) {
+        if !lin.tangents_pending {
+            return;
+        }
+        assert_eq!(x.len(), self.vertex_count());
+        assert_eq!(damping.velocities.len(), self.vertex_count());
+        let how = damping.tangent(lin.definiteness);
+        let tangent_of = |t: usize| {
+            let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * self.bm[t];
+            let f = self.deformation_gradient(x, t);
+            let g = crate::material::shifted_deformation(&f, &df_v, damping.shift);
+            self.model_of(t).damped_tangent(&g, &how)
+        };
+        if lin.alternate.is_empty() {
+            lin.tangents
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(CHUNK)
+                .for_each(|(t, tangent)| *tangent = tangent_of(t).0);
+        } else {
+            lin.tangents
+                .par_iter_mut()
+                .zip(lin.alternate.par_iter_mut())
+                .enumerate()
+                .with_min_len(CHUNK)
+                .for_each(|(t, (tangent, alternate))| (*tangent, *alternate) = tangent_of(t));
+        }
+        lin.tangents_pending = false;
+        lin.exact_active = false;
+        lin.count_tets();
     }
 
     /// Bytes one matrix-free stiffness product moves (a traffic model for roofline figures): per
@@ -426,6 +569,7 @@ impl ElasticBody {
 
     /// `out = K·dx` with K = ∂²E/∂x² frozen in `lin` (the force differential is −K·dx).
     pub fn apply_stiffness(&self, lin: &mut Linearization, dx: &[Vec3], out: &mut [Vec3]) {
+        debug_assert!(!lin.tangents_pending, "tangents used before they were made");
         assert_eq!(dx.len(), self.vertex_count());
         assert_eq!(out.len(), self.vertex_count());
         let tangents = &lin.tangents;
@@ -673,6 +817,33 @@ pub fn tet_forces(p: &Mat3, bm: &Mat3, w: f64) -> TetVectors {
     [-(f1 + f2 + f3), f1, f2, f3]
 }
 
+/// Rayleigh stiffness damping `f_d = −γ·K_d(x)·v`, evaluated in the same pass as the forces
+/// (see [`ElasticBody::linearize_damped_into`]); γ itself is the caller's.
+#[derive(Clone, Copy, Debug)]
+pub struct Damping<'a> {
+    /// The velocities v, m/s.
+    pub velocities: &'a [Vec3],
+    /// Which K the damping force uses (physics, independent of Newton's tangents).
+    pub stiffness: DampingStiffness,
+    /// θ, s: Newton's tangents are taken at `x + θ·v` instead of x (0: at x). See
+    /// [`crate::integrator::DampingTangent`].
+    pub shift: f64,
+    /// w: the weight of K_d in Newton's tangent `K_n + w·K_d` (γ/h in a backward-Euler step).
+    pub weight: f64,
+}
+
+impl Damping<'_> {
+    /// Where and how Newton's tangent is made, with the elastic part by `definiteness`.
+    fn tangent(&self, definiteness: Definiteness) -> DampedTangent {
+        DampedTangent {
+            definiteness,
+            damping: self.stiffness,
+            shift: self.shift,
+            weight: self.weight,
+        }
+    }
+}
+
 /// K frozen at one state: the per-tet tangents and the scratch the stiffness product needs.
 /// Built by [`ElasticBody::linearize`], refilled in place by [`ElasticBody::linearize_into`].
 #[derive(Clone, Debug)]
@@ -684,6 +855,11 @@ pub struct Linearization {
     alternate: Vec<DiagonalPieces>,
     exact_active: bool,
     buffer: Vec<TetVectors>,
+    /// Damped steps only: per tet its K_d·v contributions (empty until the first one).
+    damping: Vec<TetVectors>,
+    /// The tangents are not those of the last evaluation yet (a damped step with a shift; see
+    /// [`ElasticBody::damped_tangents_into`]).
+    tangents_pending: bool,
     chunk_energy: Vec<f64>,
     clamped_tets: usize,
     strongly_clamped_tets: usize,
@@ -705,11 +881,34 @@ impl Linearization {
             alternate,
             exact_active: false,
             buffer: vec![[Vec3::zeros(); 4]; n],
+            damping: Vec::new(),
+            tangents_pending: false,
             chunk_energy: vec![0.0; n.div_ceil(CHUNK)],
             clamped_tets: 0,
             strongly_clamped_tets: 0,
             inverted_tets: 0,
         }
+    }
+
+    /// Whether the tangents still wait for [`ElasticBody::damped_tangents_into`] (their counts
+    /// are then those of an earlier linearization).
+    pub fn tangents_pending(&self) -> bool {
+        self.tangents_pending
+    }
+
+    /// Count the clamped, strongly clamped and inverted tets of the tangents just made.
+    fn count_tets(&mut self) {
+        self.clamped_tets = self
+            .tangents
+            .iter()
+            .filter(|t| t.clamped_pieces() > 0)
+            .count();
+        self.strongly_clamped_tets = self
+            .tangents
+            .iter()
+            .filter(|t| t.strongly_clamped())
+            .count();
+        self.inverted_tets = self.tangents.iter().filter(|t| t.is_inverted()).count();
     }
 
     /// The definiteness treatment these tangents were built with.

@@ -23,6 +23,10 @@
 //! Newton policy, [`integrator::policy`]), `teran` (clamped to zero, Teran et al. 2005),
 //! `analytic` (the same with closed-form eigensystems, Smith et al. 2019), `abs` (absolute
 //! values) or `none` (the exact, possibly indefinite Hessian).
+//! The Rayleigh stiffness damping force `−γ·K_d(x)·v` uses its own stiffness
+//! ([`material::DampingStiffness`]: Teran's projection by default, so damping only dissipates,
+//! or the exact K), the same under every strategy: strategies shape Newton's matrix, never the
+//! forces.
 //! Models ([`material::ModelKind`]): Neo-Hookean (plain, or inside Irving et al. 2004's clamped
 //! stretches as `neo-hookean-clamped`), corotated, Stable Neo-Hookean, St. Venant-Kirchhoff,
 //! compressible Mooney-Rivlin, and linear elasticity (on F, not rotation invariant); all are

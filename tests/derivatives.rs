@@ -1,8 +1,11 @@
 //! Tier 1: every derivative against finite differences (Ψ → P, P → dP, E → f, f → K·dx) at
 //! random, near-inverted, inverted and flat F, with a sweep of step sizes; the definiteness fix;
-//! the invariants of the discrete forces; determinism across thread counts.
+//! the invariants of the discrete forces; determinism across thread counts; the damped step's
+//! damping force and tangent.
 
 mod common;
+#[path = "derivatives/damping.rs"]
+mod damping;
 #[path = "derivatives/formulas.rs"]
 mod formulas;
 #[path = "derivatives/strategies.rs"]
@@ -428,6 +431,14 @@ macro_rules! material_tests {
                 #[test]
                 fn definiteness_strategies_agree_where_they_must() {
                     strategies::check_strategies(&model(), $seed + 100);
+                }
+                #[test]
+                fn damped_tangent_is_consistent_to_second_order() {
+                    damping::check_shifted_tangent(&model(), $seed + 110);
+                }
+                #[test]
+                fn damping_force_is_the_same_for_every_strategy() {
+                    damping::check_damping_is_strategy_free(&model(), $seed + 120);
                 }
             }
         )+

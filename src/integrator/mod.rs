@@ -1,15 +1,22 @@
 //! One time step (or load step) as Newton's method on the SPEC §4 system.
 //!
-//! **Backward Euler** with Rayleigh damping `f_d = −αMv − γK(x)v`, from (xⁿ, vⁿ) over h: starting
-//! from `x₀ = xⁿ + h·vⁿ` (constrained components at their prescribed values) and keeping
+//! **Backward Euler** with Rayleigh damping `f_d = −αMv − γK_d(x)v`, from (xⁿ, vⁿ) over h:
+//! starting from `x₀ = xⁿ + h·vⁿ` (constrained components at their prescribed values) and keeping
 //! `v_k = (x_k − xⁿ)/h`, each iterate solves
 //!
 //! ```text
-//! [ (1 + γ/h)·K(x_k) + (1/h² + α/h)·M ] dx = (1/h)·M(vⁿ − v_k) + f_el(x_k) − γ·K(x_k)·v_k − α·M·v_k + f_ext
+//! [ K_n(x̃_k) + (γ/h)·K_d(x̃_k) + (1/h² + α/h)·M ] dx = (1/h)·M(vⁿ − v_k) + f_el(x_k) − γ·K_d(x_k)·v_k − α·M·v_k + f_ext
 //! ```
 //!
-//! on the free degrees of freedom, then `x_{k+1} = x_k + dx`. K(x_k) in the damping term makes it
-//! a modified Newton method; at convergence it is the exact backward-Euler step.
+//! on the free degrees of freedom, then `x_{k+1} = x_k + dx`. The right-hand side is the physics:
+//! K_d, the damping stiffness, is the scene's choice ([`crate::material::DampingStiffness`]:
+//! Teran's projected K by default, or the exact one) and no solver setting changes it, so the
+//! damped trajectory is the same under every `definiteness`. The matrix is Newton's business:
+//! K_n is the elastic tangent the definiteness strategy and [`policy`] pick, and both are taken at
+//! `x̃_k = x_k + θ·v_k` with `θ = γh/(h + γ)` ([`DampingTangent::Shifted`], the default), which
+//! adds the damping force's `γ·(∂K/∂x)[·]v` to first order; `θ = 0`
+//! ([`DampingTangent::Frozen`]) drops it (SPEC §4's modified Newton). At convergence either is
+//! the exact backward-Euler step.
 //!
 //! **Quasistatic** (no inertia): `K(x_k)·dx = f_el(x_k) + f_ext`, loads ramped over load steps.
 //!
@@ -40,7 +47,7 @@ pub mod terms;
 pub use crate::linear::PreconditionerKind;
 pub use line_search::MAX_LINE_SEARCH_CUTS;
 pub use newton::Newton;
-pub use params::{Integrator, OnFailure, SolverParams};
+pub use params::{DampingTangent, Integrator, OnFailure, SolverParams};
 pub use problem::{IncrementalPotential, StepContext, StepKind};
 pub use stats::{NewtonInfo, StepStats, Timings};
 pub use terms::{HessianShape, Term};

@@ -5,7 +5,7 @@ use crate::linear::LinearSolverParams;
 use crate::linear::PreconditionerKind;
 use crate::linear::amg::AmgParams;
 use crate::linear::cg::CgParams;
-use crate::material::Definiteness;
+use crate::material::{DampingStiffness, Definiteness};
 
 /// What is integrated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -30,6 +30,34 @@ pub enum OnFailure {
     Stop,
 }
 
+/// How Newton's matrix accounts for the damping force's dependence on x through K(x) (the
+/// force itself, −γ·K_d(x)·v, is the same either way: this changes iteration counts, not
+/// answers).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DampingTangent {
+    /// `shifted`: the consistent tangent to first order. The exact Jacobian of the damping
+    /// force is `γ/h·K(x) + γ·(∂K/∂x)[·]v`, and `(∂K/∂x)[·]v = (∂K/∂x)[v]·` (third derivatives
+    /// of E are symmetric), so `(1 + γ/h)·K(x) + γ·(∂K/∂x)[v] = (1 + γ/h)·K(x + θ·v) + O(θ²)`
+    /// with `θ = γh/(h + γ)`: Newton's tangents are taken at x + θ·v. It is the same kind of
+    /// matrix as before (symmetric, projected per element by the definiteness strategy, so
+    /// positive semi-definite), at the price of a second SVD per tet and evaluation.
+    #[default]
+    Shifted,
+    /// `frozen`: K at x, the damping's ∂K/∂x dropped (SPEC §4's modified Newton): one SVD per
+    /// tet, but Newton converges only linearly where K changes along v.
+    Frozen,
+}
+
+impl DampingTangent {
+    /// The scene name.
+    pub fn name(self) -> &'static str {
+        match self {
+            DampingTangent::Shifted => "shifted",
+            DampingTangent::Frozen => "frozen",
+        }
+    }
+}
+
 /// Every solver setting, with its unit and default (built by the scene from `[solver]`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolverParams {
@@ -45,6 +73,11 @@ pub struct SolverParams {
     pub rayleigh_stiffness: f64,
     /// Rayleigh mass damping α, 1/s: f_d = −αMv. Default 0.
     pub rayleigh_mass: f64,
+    /// Which K the stiffness damping force −γK(x)v uses: physics, the same under every
+    /// `definiteness`. Default Projected (see [`DampingStiffness`]).
+    pub damping_stiffness: DampingStiffness,
+    /// How Newton linearizes the damping force. Default Shifted (see [`DampingTangent`]).
+    pub damping_tangent: DampingTangent,
     /// Newton stops at ‖rhs‖ ≤ this × the step's first ‖rhs‖. Default 1e-6.
     pub newton_tolerance: f64,
     /// Newton iteration cap per step. Default 20.
@@ -94,6 +127,8 @@ impl Default for SolverParams {
             substeps: 1,
             rayleigh_stiffness: 0.0,
             rayleigh_mass: 0.0,
+            damping_stiffness: DampingStiffness::Projected,
+            damping_tangent: DampingTangent::Shifted,
             newton_tolerance: 1e-6,
             newton_max_iterations: 20,
             cg: CgParams::default(),

@@ -228,6 +228,14 @@ impl IncrementalPotential {
         self.energies.iter().sum()
     }
 
+    /// Make every term's Hessian data left for later at (x, v), the last evaluated iterate (see
+    /// [`Term::linearize`]).
+    pub fn linearize(&mut self, ctx: &StepContext<'_>, x: &[Vec3], v: &[Vec3]) {
+        for term in self.terms_mut() {
+            term.linearize(ctx, x, v);
+        }
+    }
+
     /// Use the exact Hessians (or the projected ones again) in every term.
     pub fn use_exact(&mut self, exact: bool) {
         self.terms_mut().for_each(|t| t.use_exact(exact));
@@ -365,5 +373,22 @@ impl System for Problem<'_, '_> {
 
     fn is_projected(&self) -> bool {
         !self.potential.elasticity.linearization().exact_in_use()
+    }
+
+    /// In damped steps `adaptive` solves with the exact tangent from the first iterate (see
+    /// [`super::policy`]): the projected A may never come, so the hierarchy is refreshed from it.
+    fn refresh_while_exact(&self) -> bool {
+        self.ctx.stiffness_damping() > 0.0
+    }
+
+    fn assemble_projected(&mut self, a: &mut BlockCsr) {
+        let exact = !self.is_projected();
+        if exact {
+            self.potential.use_exact(false);
+        }
+        self.assemble(a);
+        if exact {
+            self.potential.use_exact(true);
+        }
     }
 }

@@ -21,9 +21,10 @@
 
 use rayon::prelude::*;
 
+use super::params::DampingTangent;
 use super::problem::{StepContext, StepKind};
 use super::{CHUNK, ordered_sum};
-use crate::elastic::{AssemblyWork, ElasticBody, Linearization};
+use crate::elastic::{AssemblyWork, Damping, ElasticBody, Linearization};
 use crate::linear::sparse::{BlockCsr, BlockPattern};
 use crate::material::Definiteness;
 use crate::math::{Mat3, Vec3};
@@ -56,6 +57,11 @@ pub trait Term: Send {
         force: &mut [Vec3],
         partials: &mut [f64],
     ) -> f64;
+
+    /// Make whatever Hessian data [`Term::evaluate`] at the same (x, v) left for later (a
+    /// damped elasticity's shifted tangents): called before the Hessian is first used at an
+    /// iterate, never for an iterate Newton stops at. Default: nothing.
+    fn linearize(&mut self, _ctx: &StepContext<'_>, _x: &[Vec3], _v: &[Vec3]) {}
 
     /// The shape of the Hessian at the last evaluation.
     fn hessian_shape(&self, ctx: &StepContext<'_>) -> HessianShape;
@@ -146,9 +152,12 @@ impl Term for Inertia {
     }
 }
 
-/// Elasticity E(x) with Rayleigh stiffness damping: force `f_el(x) − γ·K(x)·v` (dynamic steps),
-/// Hessian `(1 + γ/h)·K(x)` (K(x) in the damping term frozen: a modified Newton method whose
-/// fixed point is the exact backward-Euler step).
+/// Elasticity E(x) with Rayleigh stiffness damping: force `f_el(x) − γ·K_d(x)·v` (dynamic
+/// steps; K_d the scene's [`crate::material::DampingStiffness`], whatever the definiteness
+/// strategy), Hessian `K_n(x̃) + (γ/h)·K_d(x̃)` with `x̃ = x + θ·v` (see
+/// [`super::DampingTangent`]; K_n by the strategy). In a damped step with a shift the forces come
+/// from [`Term::evaluate`] and the tangents (a second SVD per tet) from [`Term::linearize`], so
+/// that iterates Newton stops at never pay for them.
 pub struct Elasticity {
     lin: Linearization,
     f_el: Vec<Vec3>,
@@ -231,19 +240,31 @@ impl Elasticity {
     pub fn write_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
         #[cfg(feature = "mpi")]
         if let Some(parts) = &mut self.parts {
-            parts.write_matrix(&self.lin, Self::scale(ctx), ctx.free);
+            parts.write_matrix(&self.lin, 1.0, ctx.free);
             a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
             return;
         }
         ctx.body
-            .write_stiffness(&self.lin, Self::scale(ctx), a, &mut self.work, true);
+            .write_stiffness(&self.lin, 1.0, a, &mut self.work, true);
     }
 
-    /// The scale of K in the Newton matrix: 1 + γ/h (dynamic) or 1.
-    fn scale(ctx: &StepContext<'_>) -> f64 {
-        match ctx.kind {
-            StepKind::Dynamic { h, .. } => 1.0 + ctx.stiffness_damping() / h,
-            StepKind::Static => 1.0,
+    /// The damping of a dynamic step with γ > 0 at velocities v: the scene's damping stiffness,
+    /// and Newton's tangent shifted to x + θ·v with θ = γh/(h + γ) (see [`DampingTangent`]).
+    fn damping<'v>(ctx: &StepContext<'_>, v: &'v [Vec3]) -> Damping<'v> {
+        let gamma = ctx.stiffness_damping();
+        let shift = match (ctx.kind, ctx.params.damping_tangent) {
+            (StepKind::Dynamic { h, .. }, DampingTangent::Shifted) => gamma * h / (h + gamma),
+            _ => 0.0,
+        };
+        let weight = match ctx.kind {
+            StepKind::Dynamic { h, .. } => gamma / h,
+            StepKind::Static => 0.0,
+        };
+        Damping {
+            velocities: v,
+            stiffness: ctx.params.damping_stiffness,
+            shift,
+            weight,
         }
     }
 }
@@ -265,18 +286,32 @@ impl Term for Elasticity {
         let gamma = ctx.stiffness_damping();
         #[cfg(feature = "mpi")]
         let by_parts = self.parts.as_mut().map(|parts| {
-            let v = (gamma != 0.0).then_some(v);
-            parts.evaluate(x, v, &mut self.lin, &mut self.f_el, &mut self.kv)
+            let damping = (gamma != 0.0).then(|| Self::damping(ctx, v));
+            parts.evaluate(
+                x,
+                damping.as_ref(),
+                &mut self.lin,
+                &mut self.f_el,
+                &mut self.kv,
+            )
         });
         #[cfg(not(feature = "mpi"))]
         let by_parts: Option<f64> = None;
         match by_parts {
             Some(energy) => self.energy = energy,
             None => {
-                self.energy = body.linearize_into(x, &mut self.lin, &mut self.f_el);
-                if gamma != 0.0 {
-                    body.apply_stiffness(&mut self.lin, v, &mut self.kv);
-                }
+                self.energy = if gamma != 0.0 {
+                    let damping = Self::damping(ctx, v);
+                    body.damped_forces_into(
+                        x,
+                        &damping,
+                        &mut self.lin,
+                        &mut self.f_el,
+                        &mut self.kv,
+                    )
+                } else {
+                    body.linearize_into(x, &mut self.lin, &mut self.f_el)
+                };
             }
         }
         let f_el = &self.f_el;
@@ -297,6 +332,14 @@ impl Term for Elasticity {
         self.energy
     }
 
+    fn linearize(&mut self, ctx: &StepContext<'_>, x: &[Vec3], v: &[Vec3]) {
+        // Under MPI the parts made their tangents in `evaluate` (nothing is pending).
+        if ctx.stiffness_damping() != 0.0 {
+            ctx.body
+                .damped_tangents_into(x, &Self::damping(ctx, v), &mut self.lin);
+        }
+    }
+
     fn hessian_shape(&self, _ctx: &StepContext<'_>) -> HessianShape {
         HessianShape::Blocks
     }
@@ -312,11 +355,10 @@ impl Term for Elasticity {
         #[cfg(not(feature = "mpi"))]
         ctx.body
             .apply_stiffness(&mut self.lin, p, &mut self.scratch);
-        let k = Self::scale(ctx);
         out.par_iter_mut()
             .zip(self.scratch.par_iter())
             .with_min_len(CHUNK)
-            .for_each(|(o, s)| *o += k * s);
+            .for_each(|(o, s)| *o += s);
     }
 
     fn add_diagonal_blocks(&mut self, ctx: &StepContext<'_>, out: &mut [Mat3]) {
@@ -331,16 +373,14 @@ impl Term for Elasticity {
         #[cfg(not(feature = "mpi"))]
         ctx.body
             .stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
-        let k = Self::scale(ctx);
         out.par_iter_mut()
             .zip(self.blocks.par_iter())
             .with_min_len(CHUNK)
-            .for_each(|(o, b)| *o += k * b);
+            .for_each(|(o, b)| *o += b);
     }
 
     fn add_to_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
-        ctx.body
-            .add_stiffness(&self.lin, Self::scale(ctx), a, &mut self.work);
+        ctx.body.add_stiffness(&self.lin, 1.0, a, &mut self.work);
     }
 
     fn use_exact(&mut self, exact: bool) {

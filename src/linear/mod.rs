@@ -68,6 +68,18 @@ pub trait System {
     /// False while A holds an exact, possibly indefinite tangent (`adaptive` trying it): a
     /// preconditioner must not be built from such an A (see [`multigrid`]).
     fn is_projected(&self) -> bool;
+    /// Write the projected A into `a` like [`System::assemble`], whatever tangent the system
+    /// holds now, and leave the system as it was: what a preconditioner is built from while
+    /// [`System::is_projected`] is false. Default: [`System::assemble`].
+    fn assemble_projected(&mut self, a: &mut BlockCsr) {
+        self.assemble(a);
+    }
+    /// Whether a preconditioner that grew stale while A holds the exact tangent should be
+    /// refreshed from [`System::assemble_projected`] (an extra assembly) rather than wait for a
+    /// projected A: true where the exact tangent is the rule, not a short trial. Default false.
+    fn refresh_while_exact(&self) -> bool {
+        false
+    }
 }
 
 /// What a strategy has done so far, for `tetsim bench` and the run summary.
@@ -210,6 +222,15 @@ impl AssembledMatrix {
             upper.fill_from(a);
         }
         changed
+    }
+
+    /// Assemble and constrain the projected A (see [`System::assemble_projected`]) into the
+    /// storage of the last [`AssembledMatrix::assemble`], whose pattern it must have; the f32
+    /// copy is left alone (the next `assemble` refills both).
+    pub fn assemble_projected(&mut self, system: &mut dyn System, free: &[Vec3]) {
+        let a = self.a.as_mut().expect("assembled before");
+        system.assemble_projected(a);
+        a.constrain(free);
     }
 
     /// The pattern generation and pattern, for a checkpoint.

@@ -21,6 +21,19 @@ use crate::math::{Mat3, Vec3};
 /// refreshing: a refresh costs about two solves' worth of CG iterations.
 pub const AMG_REFRESH_GROWTH: f64 = 1.5;
 
+/// What [`Multigrid::prepare`] does to the hierarchy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Action {
+    /// The first build.
+    Build,
+    /// A build for a new pattern.
+    NewPattern,
+    /// A build after a capped solve.
+    Rebuild,
+    /// New numbers on the kept aggregates.
+    Refresh,
+}
+
 /// Assembled A with a multigrid preconditioner.
 pub struct Multigrid {
     matrix: AssembledMatrix,
@@ -71,7 +84,6 @@ impl LinearSolver for Multigrid {
         let started = std::time::Instant::now();
         let new_pattern = self.matrix.assemble(system, free);
         let assembled = std::time::Instant::now();
-        let a = self.matrix.a.as_ref().expect("assembled");
         // One iteration of slack per decade, so that 2 → 4 iterations does not count as growth.
         let stale = self
             .baseline_rate
@@ -81,11 +93,32 @@ impl LinearSolver for Multigrid {
         // Chebyshev smoothers and coarse factor stop being positive definite, and CG on the
         // projected A that follows broke down at every Newton iterate (a tangled ball, frame 43:
         // 147 breakdowns and no convergence, against none with the hierarchy kept). The exact A
-        // is preconditioned with the hierarchy of the projected one.
+        // is preconditioned with the hierarchy of the projected one, refreshed (when stale) from
+        // the projected A assembled for it, then the exact A again, where the system asks for it
+        // ([`System::refresh_while_exact`]); else the refresh waits for a projected A.
         let exact = !system.is_projected();
+        let refresh_exact = exact && stale && system.refresh_while_exact();
+        let action = match &self.amg {
+            None => Some(Action::Build),
+            // A new pattern (contact blocks came or went) has new aggregates.
+            Some(_) if new_pattern => Some(Action::NewPattern),
+            // A solve that ran into the CG cap says the hierarchy no longer fits A at all, not
+            // that it aged: a body started collapsed onto a line builds its aggregates from
+            // that degenerate A, and the growth rule never fires when the first solve is
+            // already capped (a 3,560-tet ball: 2,000 CG iterations at every Newton iterate,
+            // minutes per frame). Aggregates and numbers are rebuilt from the current A.
+            Some(_) if self.last_capped && !exact => Some(Action::Rebuild),
+            Some(_) if stale && (!exact || refresh_exact) => Some(Action::Refresh),
+            Some(_) => None,
+        };
+        let from_projected = refresh_exact && action == Some(Action::Refresh);
+        if from_projected {
+            self.matrix.assemble_projected(system, free);
+        }
+        let a = self.matrix.a.as_ref().expect("assembled");
         let builds = self.report.builds;
-        match &mut self.amg {
-            amg @ None => {
+        match (action, &mut self.amg) {
+            (Some(Action::Build), amg) => {
                 *amg = Some(Box::new(Amg::new(
                     a,
                     system.rest_positions(),
@@ -94,35 +127,32 @@ impl LinearSolver for Multigrid {
                 )));
                 self.report.builds += 1;
             }
-            // A new pattern (contact blocks came or went) has new aggregates.
-            Some(amg) if new_pattern => {
+            (Some(Action::NewPattern), Some(amg)) => {
                 **amg = Amg::new(a, system.rest_positions(), free, &self.params);
                 self.baseline_rate = None;
                 self.report.builds += 1;
                 self.report.pattern_changes += 1;
             }
-            // A solve that ran into the CG cap says the hierarchy no longer fits A at all, not
-            // that it aged: a body started collapsed onto a line builds its aggregates from
-            // that degenerate A, and the growth rule never fires when the first solve is
-            // already capped (a 3,560-tet ball: 2,000 CG iterations at every Newton iterate,
-            // minutes per frame). Aggregates and numbers are rebuilt from the current A.
-            Some(amg) if self.last_capped && !exact => {
+            (Some(Action::Rebuild), Some(amg)) => {
                 **amg = Amg::new(a, system.rest_positions(), free, &self.params);
                 self.baseline_rate = None;
                 self.last_capped = false;
                 self.report.builds += 1;
             }
-            Some(amg) if stale && !exact => {
+            (Some(Action::Refresh), Some(amg)) => {
                 amg.refresh(a);
                 self.baseline_rate = None;
                 self.report.refreshes += 1;
                 self.refreshed = true;
             }
-            Some(_) => {}
+            _ => {}
         }
         if self.report.builds != builds {
             self.built = Some((free.to_vec(), a.values.clone()));
             self.refreshed = false;
+        }
+        if from_projected {
+            self.matrix.assemble(system, free);
         }
         log::debug!(
             "assembly {:.4} s, preconditioner {:.4} s",

@@ -12,7 +12,7 @@
 //! Definiteness is fixed per element by clamping (or flipping, see [`Definiteness`]) the negative
 //! eigenvalues of these four blocks, which makes the tangent (and so K) positive semi-definite.
 
-use super::{Definiteness, Material, Tangent};
+use super::{DampedEvaluation, DampedTangent, Definiteness, DiagonalPieces, Material, Tangent};
 use crate::math::{Mat3, Vec3, abs_psd3, clamp_psd3, is_psd3, map_eigenvalues, svd_rv};
 
 /// The index pairs (i, j), i < j, of the three 2×2 blocks, in the order [`Tangent`] stores them.
@@ -199,6 +199,94 @@ impl<M: Isotropic> Invertible<M> {
         let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
         let tangent = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, definiteness);
         (d.psi, stress, tangent)
+    }
+
+    /// One tet of a damped step from one SVD (two when `how.shift` ≠ 0): see
+    /// [`super::Model::evaluate_damped`].
+    #[inline]
+    pub fn evaluate_damped(&self, f: &Mat3, df_v: &Mat3, how: &DampedTangent) -> DampedEvaluation {
+        if how.shift != 0.0 {
+            let (psi, stress, damping) = self.damping_stress(f, df_v, how.damping);
+            let g = super::shifted_deformation(f, df_v, how.shift);
+            let (tangent, exact) = self.damped_tangent(&g, how);
+            return DampedEvaluation {
+                psi,
+                stress,
+                damping,
+                tangent,
+                exact,
+            };
+        }
+        let svd = svd_rv(f);
+        let d = self.model.derivatives(&svd.sigma);
+        let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
+        let at_f = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
+        let (tangent, exact) = self.newton_tangent(&svd.u, &svd.v, &svd.sigma, &d, &at_f, how);
+        DampedEvaluation {
+            psi: d.psi,
+            stress,
+            damping: at_f.apply(df_v),
+            tangent,
+            exact,
+        }
+    }
+
+    /// Ψ, P and the damping stress `K_d(F):dF_v` from one SVD, without Newton's tangent (see
+    /// [`super::Model::damping_stress`]).
+    #[inline]
+    pub fn damping_stress(
+        &self,
+        f: &Mat3,
+        df_v: &Mat3,
+        damping: super::DampingStiffness,
+    ) -> (f64, Mat3, Mat3) {
+        let svd = svd_rv(f);
+        let d = self.model.derivatives(&svd.sigma);
+        let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
+        let at_f = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, damping.definiteness());
+        (d.psi, stress, at_f.apply(df_v))
+    }
+
+    /// Newton's tangent of a damped step at G (the shifted F), with `adaptive`'s exact pieces
+    /// (see [`super::Model::damped_tangent`]).
+    #[inline]
+    pub fn damped_tangent(&self, g: &Mat3, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
+        let svd = svd_rv(g);
+        let d = self.model.derivatives(&svd.sigma);
+        let at_g = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
+        self.newton_tangent(&svd.u, &svd.v, &svd.sigma, &d, &at_g, how)
+    }
+
+    /// Newton's tangent `N + w·K_d` at one σ (U, V, derivatives d), given the damping
+    /// stiffness's tangent there; for `adaptive` also the exact pieces plus `w·K_d`.
+    #[inline]
+    fn newton_tangent(
+        &self,
+        u: &Mat3,
+        v: &Mat3,
+        s: &Vec3,
+        d: &Derivatives,
+        damping: &Tangent,
+        how: &DampedTangent,
+    ) -> (Tangent, DiagonalPieces) {
+        let strategy = match how.definiteness {
+            Definiteness::Adaptive => Definiteness::Projected,
+            other => other,
+        };
+        let mut tangent = if strategy == how.damping.definiteness() {
+            *damping
+        } else {
+            self.tangent_at(u, v, s, d, strategy)
+        };
+        tangent.add_pieces(damping, how.weight);
+        let exact = if how.definiteness == Definiteness::Adaptive {
+            let mut exact = self.tangent_at(u, v, s, d, Definiteness::Exact);
+            exact.add_pieces(damping, how.weight);
+            exact.pieces()
+        } else {
+            DiagonalPieces::default()
+        };
+        (tangent, exact)
     }
 
     #[inline]

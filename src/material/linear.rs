@@ -11,7 +11,9 @@
 //! so every definiteness strategy leaves it unchanged for physical parameters. Finite for every F,
 //! inverted and flat included, and convex: forces always point back to the rest shape.
 
-use super::{Definiteness, Lame, Material, Tangent};
+use super::{
+    DampedEvaluation, DampedTangent, Definiteness, DiagonalPieces, Lame, Material, Tangent,
+};
 use crate::math::{Mat3, Vec3};
 
 /// Linear elasticity on F (see the module docs).
@@ -55,6 +57,42 @@ impl LinearElastic {
             self.stress_of(&e),
             self.tangent(f, definiteness),
         )
+    }
+
+    /// One tet of a damped step, like [`super::Invertible::evaluate_damped`] (the tangent is
+    /// constant and positive semi-definite: every strategy and the shift give the same one).
+    #[inline]
+    pub fn evaluate_damped(&self, f: &Mat3, df_v: &Mat3, how: &DampedTangent) -> DampedEvaluation {
+        let (psi, stress, damping) = self.damping_stress(f, df_v, how.damping);
+        let (tangent, exact) = self.damped_tangent(f, how);
+        DampedEvaluation {
+            psi,
+            stress,
+            damping,
+            tangent,
+            exact,
+        }
+    }
+
+    /// Ψ, P and the damping stress, like [`super::Invertible::damping_stress`].
+    #[inline]
+    pub fn damping_stress(
+        &self,
+        f: &Mat3,
+        df_v: &Mat3,
+        damping: super::DampingStiffness,
+    ) -> (f64, Mat3, Mat3) {
+        let e = Self::strain(f);
+        let dp = self.tangent(f, damping.definiteness()).apply(df_v);
+        (self.energy_of(&e), self.stress_of(&e), dp)
+    }
+
+    /// Newton's tangent of a damped step, like [`super::Invertible::damped_tangent`].
+    #[inline]
+    pub fn damped_tangent(&self, g: &Mat3, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
+        let mut tangent = self.tangent(g, how.definiteness);
+        tangent.add_pieces(&self.tangent(g, how.damping.definiteness()), how.weight);
+        (tangent, tangent.pieces())
     }
 }
 

@@ -78,12 +78,15 @@ pub enum Definiteness {
     /// `adaptive`: the exact tangent while it works, `teran` where it does not (after Longva et
     /// al. 2023, "Pitfalls of projection"). Per element it is `teran` (so every material-level
     /// call returns the projected tangent); the Newton solver keeps the exact pieces beside the
-    /// projected ones, solves with the exact K first and falls back to the projected K for that
-    /// iterate when CG meets negative curvature, the direction is not a descent direction or the
-    /// line search fails. Projection makes Newton linear wherever it clamps (compressed,
-    /// nearly incompressible bodies: 240 Newton iterations per frame against 12 on the ν = 0.49
-    /// cantilever at dt = 1 s), the fallback keeps the exact tangent's breakdowns harmless.
-    /// The default: identical to `teran` wherever projected Newton converges well.
+    /// projected ones, solves with the exact K (in damped steps from the first iterate, in
+    /// undamped ones once projected Newton stalls; see `integrator::policy`) and falls back to
+    /// the projected K for that iterate when CG meets negative curvature, the direction is not a
+    /// descent direction or the line search fails. Projection makes Newton linear wherever it
+    /// clamps (compressed, nearly incompressible bodies: 240 Newton iterations per frame against
+    /// 12 on the ν = 0.49 cantilever at dt = 1 s; a bending beam's compressed side: 3.67 against
+    /// 2.13 on the 41,472-tet bench beam), the fallback keeps the exact tangent's breakdowns
+    /// harmless. The default: in undamped steps identical to `teran` wherever projected Newton
+    /// converges well.
     #[default]
     Adaptive,
 }
@@ -139,6 +142,136 @@ impl std::fmt::Display for Definiteness {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
+}
+
+/// Which stiffness the Rayleigh damping force `f_d = −γ·K(x)·v` uses: a choice of physics,
+/// made once per scene, and the same function of (x, v) whatever [`Definiteness`] strategy and
+/// tangent policy Newton uses (those only shape Newton's matrix, never the forces).
+///
+/// Scene names ([`DampingStiffness::from_name`]): `projected` (the default), `exact`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DampingStiffness {
+    /// `projected`: K with Teran et al. 2005's clamp (negative diagonal-space eigenvalues set to
+    /// zero per element, as `definiteness = "teran"` makes it). K is then positive
+    /// semi-definite, so the damping power `−γ·vᵀK·v` is never positive: damping only
+    /// dissipates, also where elements are compressed or inverted (where the exact K is
+    /// indefinite and `exact` damping would feed energy in). VegaFEM damps with its SPD-fixed K
+    /// too. Identical to `exact` wherever the exact K is already positive semi-definite.
+    #[default]
+    Projected,
+    /// `exact`: K(x) = ∂²E/∂x², SPEC §4 as written (and what FEniCSx's UFL derivative gives). It
+    /// may be indefinite far from rest, where the damping force can then do positive work.
+    Exact,
+}
+
+impl DampingStiffness {
+    /// Every choice, the default first.
+    pub const ALL: [DampingStiffness; 2] = [DampingStiffness::Projected, DampingStiffness::Exact];
+
+    /// The scene name (`[solver] damping_stiffness = "..."`).
+    pub fn name(self) -> &'static str {
+        match self {
+            DampingStiffness::Projected => "projected",
+            DampingStiffness::Exact => "exact",
+        }
+    }
+
+    /// The choice of a scene name (`teran` is an alias of `projected`, `none` of `exact`);
+    /// case-insensitive.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name.trim().to_ascii_lowercase().as_str() {
+            "projected" | "teran" => Some(DampingStiffness::Projected),
+            "exact" | "none" => Some(DampingStiffness::Exact),
+            _ => None,
+        }
+    }
+
+    /// The per-element treatment of the tangent that makes this K.
+    pub fn definiteness(self) -> Definiteness {
+        match self {
+            DampingStiffness::Projected => Definiteness::Projected,
+            DampingStiffness::Exact => Definiteness::Exact,
+        }
+    }
+
+    /// True for the default (scene files and manifests leave it out then).
+    pub fn is_default(&self) -> bool {
+        *self == DampingStiffness::default()
+    }
+}
+
+impl std::fmt::Display for DampingStiffness {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What the element loop needs per tet in a damped step (see [`Model::evaluate_damped`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DampedEvaluation {
+    /// Ψ(F), J/m³.
+    pub psi: f64,
+    /// P(F), Pa.
+    pub stress: Mat3,
+    /// The damping stress differential `K_d(F) : dF_v` (the tangent of the
+    /// [`DampingStiffness`] at F applied to the velocity gradient dF_v), Pa/s.
+    pub damping: Mat3,
+    /// Newton's tangent of elasticity and damping together: the strategy's tangent plus
+    /// `weight` × the damping stiffness's, both at `F + shift·dF_v`.
+    pub tangent: Tangent,
+    /// `adaptive` only: the same with the exact elastic pieces (what
+    /// [`Tangent::swap_pieces`] puts in use when Newton tries the exact tangent).
+    pub exact: DiagonalPieces,
+}
+
+/// The largest shift of a damped step's tangent point, relative to F's smallest stretch (see
+/// [`shifted_deformation`]).
+pub const MAX_SHIFT: f64 = 0.1;
+
+/// The F at which a damped step's Newton tangent is taken: `F + θ·dF_v`, with θ cut for this
+/// tet so that the shift stays within [`MAX_SHIFT`] of F's smallest stretch (bounded below by
+/// `1/‖F⁻¹‖_F`; a flat or inverted F is not shifted at all). The shift stands in for the
+/// tangent's first-order change along v, which is only a model of it while the shift is small:
+/// near inversion the tangent changes faster, and a shifted F beyond σ₃ = 0 is no model of the
+/// step (on `scenes/squash_release.toml`, tets reaching J = 0.02 made Newton crawl at a rate of
+/// 0.5 for 20 iterations, then land on another stationary point than without the shift).
+#[inline]
+pub fn shifted_deformation(f: &Mat3, df_v: &Mat3, shift: f64) -> Mat3 {
+    let size = shift * df_v.norm();
+    if size == 0.0 {
+        return *f;
+    }
+    let det = f.determinant();
+    if det <= 0.0 {
+        return *f;
+    }
+    // ‖F⁻¹‖_F = ‖cof F‖_F / det F, the cofactors being the columns' cross products.
+    let (c0, c1, c2) = (f.column(0), f.column(1), f.column(2));
+    let cofactor = (c1.cross(&c2).norm_squared()
+        + c2.cross(&c0).norm_squared()
+        + c0.cross(&c1).norm_squared())
+    .sqrt();
+    let allowed = MAX_SHIFT * det / cofactor;
+    let theta = if size <= allowed {
+        shift
+    } else {
+        shift * allowed / size
+    };
+    f + theta * df_v
+}
+
+/// Where and how a damped step's Newton tangent is made (see [`Model::evaluate_damped`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DampedTangent {
+    /// The definiteness strategy of the elastic part.
+    pub definiteness: Definiteness,
+    /// The damping stiffness (physics).
+    pub damping: DampingStiffness,
+    /// θ: the tangent is taken at `F + θ·dF_v` (0: at F; θ is cut per tet, see
+    /// [`shifted_deformation`]).
+    pub shift: f64,
+    /// w: the damping stiffness's weight in the tangent (γ/h in a backward-Euler step).
+    pub weight: f64,
 }
 
 /// The contract the element kernels use. Units: Ψ in J/m³, P in Pa.
@@ -205,6 +338,24 @@ impl Tangent {
         std::mem::swap(&mut self.diag, &mut other.diag);
         std::mem::swap(&mut self.pair_sym, &mut other.pair_sym);
         std::mem::swap(&mut self.pair_skew, &mut other.pair_skew);
+    }
+
+    /// `self += w·other` piece by piece; both must share U and V (made at the same F).
+    #[inline]
+    pub(crate) fn add_pieces(&mut self, other: &Tangent, w: f64) {
+        self.diag += w * other.diag;
+        self.pair_sym += w * other.pair_sym;
+        self.pair_skew += w * other.pair_skew;
+    }
+
+    /// This tangent's diagonal-space pieces.
+    #[inline]
+    pub(crate) fn pieces(&self) -> DiagonalPieces {
+        DiagonalPieces {
+            diag: self.diag,
+            pair_sym: self.pair_sym,
+            pair_skew: self.pair_skew,
+        }
     }
 
     /// Project an exact tangent in place with the `teran` clamp, keeping its exact pieces in
@@ -433,6 +584,32 @@ impl Model {
     pub fn evaluate(&self, f: &Mat3, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
         with_model!(self, m => m.evaluate(f, definiteness))
     }
+
+    /// One tet of a damped step: Ψ and P at F, the damping stress differential
+    /// `K_d(F) : dF_v` with the damping stiffness `how.damping`, and Newton's tangent
+    /// `N + w·K_d` (N by `how.definiteness`, w = `how.weight`) at `F + θ·dF_v` (θ = `how.shift`;
+    /// at F when θ = 0: one SVD in all, else a second one at the shifted F). See
+    /// [`crate::integrator::DampingTangent`] for why the tangent may be shifted.
+    pub fn evaluate_damped(&self, f: &Mat3, df_v: &Mat3, how: &DampedTangent) -> DampedEvaluation {
+        with_model!(self, m => m.evaluate_damped(f, df_v, how))
+    }
+
+    /// The first half of [`Model::evaluate_damped`] with a shift: Ψ, P and `K_d(F):dF_v` at F
+    /// (one SVD), for the forces.
+    pub fn damping_stress(
+        &self,
+        f: &Mat3,
+        df_v: &Mat3,
+        damping: DampingStiffness,
+    ) -> (f64, Mat3, Mat3) {
+        with_model!(self, m => m.damping_stress(f, df_v, damping))
+    }
+
+    /// The second half: Newton's tangent `N + w·K_d` at G = F + θ·dF_v (one SVD), and
+    /// `adaptive`'s exact pieces, for when Newton needs them.
+    pub fn damped_tangent(&self, g: &Mat3, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
+        with_model!(self, m => m.damped_tangent(g, how))
+    }
 }
 
 impl Material for Model {
@@ -463,6 +640,29 @@ impl<'de> serde::Deserialize<'de> for Definiteness {
                 names.join(", ")
             ))
         })
+    }
+}
+
+/// Scene files name the damping stiffness by [`DampingStiffness::from_name`]; an unknown name
+/// lists the valid ones.
+impl<'de> serde::Deserialize<'de> for DampingStiffness {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        DampingStiffness::from_name(&name).ok_or_else(|| {
+            let names: Vec<&str> = DampingStiffness::ALL.iter().map(|d| d.name()).collect();
+            serde::de::Error::custom(format!(
+                "unknown damping stiffness \"{}\", expected one of {}",
+                crate::error::clip(&name),
+                names.join(", ")
+            ))
+        })
+    }
+}
+
+/// Written as its scene name.
+impl serde::Serialize for DampingStiffness {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
     }
 }
 

@@ -7,7 +7,7 @@
 use std::sync::{Arc, Mutex};
 
 use super::partition::{Part, sum_in_rank_order};
-use crate::elastic::{ElasticBody, Linearization, element_stiffness};
+use crate::elastic::{Damping, ElasticBody, Linearization, element_stiffness};
 use crate::math::{Mat3, Vec3};
 
 /// The collective operation the parts need: an all-gather (MPI_Allgatherv on a communicator;
@@ -56,6 +56,9 @@ pub struct PartitionedElasticity {
     sink: Arc<Mutex<dyn ElementSink>>,
     xl: Vec<Vec3>,
     fl: Vec<Vec3>,
+    /// Damped steps: the local velocities and K_d·v.
+    vl: Vec<Vec3>,
+    kvl: Vec<Vec3>,
     blocks: Vec<Mat3>,
     send: Vec<f64>,
     recv: Vec<f64>,
@@ -83,6 +86,8 @@ impl PartitionedElasticity {
             sink,
             xl: vec![Vec3::zeros(); n],
             fl: vec![Vec3::zeros(); n],
+            vl: Vec::new(),
+            kvl: Vec::new(),
             blocks: vec![Mat3::zeros(); n],
             send: Vec::new(),
             recv: Vec::new(),
@@ -137,12 +142,12 @@ impl PartitionedElasticity {
     }
 
     /// Linearize this rank's tets at x (whole-mesh positions); `f_el` gets the whole body's
-    /// elastic forces, `kv` (when `v` is given) the whole body's K·v, `lin` this rank's tangents
+    /// elastic forces, `kv` (when damped) the whole body's K_d·v, `lin` this rank's tangents
     /// with the whole body's counts. Returns the whole body's elastic energy.
     pub fn evaluate(
         &mut self,
         x: &[Vec3],
-        v: Option<&[Vec3]>,
+        damping: Option<&Damping<'_>>,
         lin: &mut Linearization,
         f_el: &mut [Vec3],
         kv: &mut [Vec3],
@@ -150,12 +155,36 @@ impl PartitionedElasticity {
         #[cfg(feature = "mpi")]
         super::setup::record(|s| s.evaluations += 1);
         self.local_of(x);
-        let energy = self.body.linearize_into(&self.xl, lin, &mut self.fl);
+        let energy = match damping {
+            None => self.body.linearize_into(&self.xl, lin, &mut self.fl),
+            Some(damping) => {
+                let mut vl = std::mem::take(&mut self.vl);
+                vl.clear();
+                vl.extend(
+                    self.parts[self.rank]
+                        .vertices
+                        .iter()
+                        .map(|&i| damping.velocities[i]),
+                );
+                let mut kvl = std::mem::take(&mut self.kvl);
+                kvl.resize(vl.len(), Vec3::zeros());
+                let local = Damping {
+                    velocities: &vl,
+                    ..*damping
+                };
+                let energy =
+                    self.body
+                        .linearize_damped_into(&self.xl, &local, lin, &mut self.fl, &mut kvl);
+                self.vl = vl;
+                self.kvl = kvl;
+                energy
+            }
+        };
         self.exchange_vectors(f_el);
-        if let Some(v) = v {
-            self.local_of(v);
-            self.body.apply_stiffness(lin, &self.xl, &mut self.fl);
+        if damping.is_some() {
+            std::mem::swap(&mut self.fl, &mut self.kvl);
             self.exchange_vectors(kv);
+            std::mem::swap(&mut self.fl, &mut self.kvl);
         }
         let counts = vec![3; self.parts.len()];
         let mine = [
@@ -284,7 +313,13 @@ mod tests {
         let mut pe = PartitionedElasticity::new(&body, parts, Box::new(Alone), sink.clone());
         let mut lin = Linearization::new(pe.body(), Definiteness::Projected);
         let (mut f, mut kv) = (vec![Vec3::zeros(); n], vec![Vec3::zeros(); n]);
-        let energy = pe.evaluate(&x, Some(&x), &mut lin, &mut f, &mut kv);
+        let damping = Damping {
+            velocities: &x,
+            stiffness: crate::material::DampingStiffness::Projected,
+            shift: 0.0,
+            weight: 0.0,
+        };
+        let energy = pe.evaluate(&x, Some(&damping), &mut lin, &mut f, &mut kv);
         let mut serial_lin = body.linearize(&x, Definiteness::Projected);
         let mut serial = vec![Vec3::zeros(); n];
         body.add_forces(&x, &mut serial);

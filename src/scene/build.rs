@@ -20,8 +20,8 @@ use crate::sim::{Simulation, State};
 use super::bodies::Membership;
 use super::locate::{Seg, key};
 use super::schema::{
-    Generator, IntegratorName, MeshSpec, MotionSpec, OnFailureName, PreconditionerName, RegionSpec,
-    Scene,
+    DampingTangentName, Generator, IntegratorName, MeshSpec, MotionSpec, OnFailureName,
+    PreconditionerName, RegionSpec, Scene,
 };
 use super::units::{Unit, length_unit};
 
@@ -121,6 +121,11 @@ impl Scene {
             substeps: s.substeps,
             rayleigh_stiffness: s.rayleigh_stiffness,
             rayleigh_mass: s.rayleigh_mass,
+            damping_stiffness: s.damping_stiffness,
+            damping_tangent: match s.damping_tangent {
+                DampingTangentName::Shifted => crate::integrator::DampingTangent::Shifted,
+                DampingTangentName::Frozen => crate::integrator::DampingTangent::Frozen,
+            },
             newton_tolerance: s.newton_tolerance,
             newton_max_iterations: s.newton_max_iterations,
             cg: crate::linear::cg::CgParams {

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::integrator::SolverParams;
-use crate::material::{Definiteness, ModelKind};
+use crate::material::{DampingStiffness, Definiteness, ModelKind};
 use crate::mesh::ordering::VertexOrder;
 
 use super::units;
@@ -515,6 +515,13 @@ pub struct SolverSpec {
         deserialize_with = "units::optional_two::<_, units::Frequency>"
     )]
     pub damping_frequencies: Option<[f64; 2]>,
+    /// The K of the stiffness damping force: "projected" (default) or "exact". Left out of
+    /// manifests when default.
+    #[serde(skip_serializing_if = "DampingStiffness::is_default")]
+    pub damping_stiffness: DampingStiffness,
+    /// Newton's treatment of the damping force's ∂K/∂x: "shifted" (default) or "frozen".
+    #[serde(skip_serializing_if = "DampingTangentName::is_default")]
+    pub damping_tangent: DampingTangentName,
     /// Newton tolerance relative to the step's first residual. Default 1e-6.
     #[serde(deserialize_with = "units::scalar::<_, units::Ratio>")]
     pub newton_tolerance: f64,
@@ -563,6 +570,8 @@ impl Default for SolverSpec {
             rayleigh_mass: p.rayleigh_mass,
             damping_ratio: None,
             damping_frequencies: None,
+            damping_stiffness: p.damping_stiffness,
+            damping_tangent: DampingTangentName::default(),
             newton_tolerance: p.newton_tolerance,
             newton_max_iterations: p.newton_max_iterations,
             cg_tolerance: p.cg.tolerance,
@@ -589,6 +598,24 @@ pub enum IntegratorName {
     BackwardEuler,
     /// Quasistatic.
     Quasistatic,
+}
+
+/// Scene names of the damping tangents (see [`crate::integrator::DampingTangent`]).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DampingTangentName {
+    /// Newton's tangent at x + θ·v.
+    #[default]
+    Shifted,
+    /// K(x) frozen.
+    Frozen,
+}
+
+impl DampingTangentName {
+    /// True for the default (left out of manifests then).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// Scene names of the preconditioners.
