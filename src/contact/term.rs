@@ -81,7 +81,7 @@ pub struct ContactCosts {
 
 /// The contact term's state that carries over from one step to the next (see
 /// [`ContactTerm::saved_state`]).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ContactState {
     /// Barrier stiffness κ.
     pub kappa: f64,
@@ -89,6 +89,10 @@ pub struct ContactState {
     pub previous_min_distance: f64,
     /// The smallest gap at the last evaluation (m).
     pub min_distance: Option<f64>,
+    /// The body-pair blocks held in the matrix pattern, with their generation: the set carries
+    /// its history (it grows and starts over, see [`held`]), so a resumed run must start from it
+    /// to assemble on the pattern, and build the preconditioner, of the run never stopped.
+    pub held: (Vec<(u32, u32)>, u64),
 }
 
 /// One active pair: up to four body vertices and the pair's energy derivatives over them.
@@ -402,6 +406,7 @@ impl ContactTerm {
             kappa: self.kappa,
             previous_min_distance: self.previous_min_distance,
             min_distance: self.min_distance,
+            held: (self.held.blocks().to_vec(), self.held.generation()),
         }
     }
 
@@ -410,6 +415,7 @@ impl ContactTerm {
         self.kappa = state.kappa;
         self.previous_min_distance = state.previous_min_distance;
         self.min_distance = state.min_distance;
+        self.held = held::HeldBlocks::restored(state.held.0.clone(), state.held.1);
     }
 
     /// Barrier energy at the last evaluation, J.

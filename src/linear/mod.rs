@@ -195,6 +195,11 @@ pub(crate) struct AssembledMatrix {
     pub upper: Option<sparse::UpperF32>,
     /// The pattern generation `a` was made for.
     generation: Option<u64>,
+    /// After a resume: the pattern the checkpoint's generation stood for. A resumed run numbers
+    /// its first pattern with the stored generation, so the first assembly compares the
+    /// patterns themselves (a resumed coil once refreshed its restored hierarchy on a pattern
+    /// the contact pairs had changed since).
+    restored: Option<BlockPattern>,
 }
 
 impl AssembledMatrix {
@@ -203,6 +208,7 @@ impl AssembledMatrix {
             a: None,
             upper: f32_matrix.then(sparse::UpperF32::default),
             generation: None,
+            restored: None,
         }
     }
 
@@ -210,7 +216,10 @@ impl AssembledMatrix {
     /// call included).
     pub fn assemble(&mut self, system: &mut dyn System, free: &[Vec3]) -> bool {
         let pattern = system.pattern();
-        let changed = self.generation != Some(pattern.generation);
+        let mut changed = self.generation != Some(pattern.generation);
+        if let Some(restored) = self.restored.take() {
+            changed |= restored != *pattern.pattern;
+        }
         if changed || self.a.is_none() {
             self.a = Some(BlockCsr::zeros(pattern.pattern.clone()));
             self.generation = Some(pattern.generation);
@@ -244,9 +253,11 @@ impl AssembledMatrix {
 
     /// Take up a saved generation and pattern (see [`AssembledMatrix::saved`]): the next
     /// assembly with that generation reuses the storage instead of counting a new pattern.
-    pub fn restore(&mut self, generation: Option<u64>, a: Option<BlockCsr>) {
+    /// `pattern` is the one `generation` stood for, when stored.
+    pub fn restore(&mut self, generation: Option<u64>, pattern: Option<BlockPattern>) {
         self.generation = generation;
-        self.a = a;
+        self.a = None;
+        self.restored = pattern;
     }
 
     /// CG with the assembled A (f64 or its f32 upper triangle).
@@ -549,6 +560,49 @@ mod tests {
             if matches!(kind, PreconditionerKind::Cholesky) {
                 assert_eq!(report.pattern_changes, changes, "{kind:?}: {report:?}");
             }
+        }
+    }
+
+    /// A resumed run numbers its first pattern with the checkpoint's generation: the multigrid
+    /// strategy must see whether the pattern behind that number is still the one it stored
+    /// (contact pairs may have changed it at the step's start), and rebuild exactly when not.
+    #[test]
+    fn a_restored_multigrid_rebuilds_when_the_pattern_behind_its_generation_changed() {
+        let side = 6;
+        let n = side * side * side;
+        let params = LinearSolverParams {
+            kind: PreconditionerKind::Amg,
+            amg: amg::AmgParams::default(),
+            f32_matrix: false,
+            cholesky_reuse: true,
+        };
+        let free = vec![Vec3::repeat(1.0); n];
+        let b: Vec<Vec3> = (0..n)
+            .map(|i| Vec3::new(1.0, (i % 5) as f64, 0.5))
+            .collect();
+        let cg = CgParams {
+            tolerance: 1e-10,
+            max_iterations: 5000,
+        };
+        let mut system = Springs::new(side);
+        system.set_extra(vec![(0, n - 1), (1, n - 2)]);
+        let mut solver = make_solver(&params, n);
+        solver.prepare(&mut system, &free);
+        let mut x = vec![Vec3::zeros(); n];
+        solver.solve(&mut system, &b, &mut x, &free, &cg).unwrap();
+        let saved = solver.save_state();
+        let generation = system.generation;
+        for (extra, rebuilt) in [(vec![(0, n - 1), (1, n - 2)], 0), (vec![(2, n - 3)], 1)] {
+            let mut resumed = make_solver(&params, n);
+            resumed.restore_state(&saved, &system.positions).unwrap();
+            let before = resumed.report().pattern_changes;
+            system.set_extra(extra);
+            system.generation = generation;
+            resumed.prepare(&mut system, &free);
+            let mut x = vec![Vec3::zeros(); n];
+            let info = resumed.solve(&mut system, &b, &mut x, &free, &cg).unwrap();
+            assert!(info.converged, "{info:?}");
+            assert_eq!(resumed.report().pattern_changes - before, rebuilt);
         }
     }
 }

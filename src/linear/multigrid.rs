@@ -8,6 +8,7 @@
 
 use super::amg::{Amg, AmgParams};
 use super::cg::{CgError, CgInfo, CgParams, CgWorkspace, Preconditioner};
+use super::sparse::BlockPattern;
 use super::state::{
     HierarchyState, MultigridState, SolverState, blocks_out, matrix_in, vectors_in, vectors_out,
 };
@@ -257,7 +258,11 @@ impl LinearSolver for Multigrid {
             (_, None) => {}
             (None, Some(_)) => return Err("the stored multigrid hierarchy has no matrix".into()),
         }
-        self.matrix.restore(s.generation, None);
+        let pattern = s.pattern.as_ref().map(|p| BlockPattern {
+            row_start: p.0.clone(),
+            cols: p.1.clone(),
+        });
+        self.matrix.restore(s.generation, pattern);
         self.baseline_rate = s.baseline_rate;
         self.last_rate = s.last_rate;
         self.last_capped = s.last_capped;

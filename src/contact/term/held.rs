@@ -26,6 +26,11 @@ impl HeldBlocks {
         &self.blocks
     }
 
+    /// A set saved with its generation (a checkpoint's).
+    pub fn restored(blocks: Vec<(u32, u32)>, generation: u64) -> Self {
+        HeldBlocks { blocks, generation }
+    }
+
     /// Changes whenever the held set does.
     pub fn generation(&self) -> u64 {
         self.generation
