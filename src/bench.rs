@@ -345,6 +345,7 @@ friction = 0.0
 dt = {dt}
 frames = {frames}
 rayleigh_mass = 5.0
+newton_max_iterations = 200
 {solver_overrides}
 "#,
         nx = 16 * n,

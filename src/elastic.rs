@@ -200,6 +200,24 @@ impl ElasticBody {
         })
     }
 
+    /// The smallest Young's modulus among the body's materials (Pa), read off each model's
+    /// tangent at rest: μ = ∂P₁₂/∂F₁₂, λ = ∂P₂₂/∂F₁₁, E = μ(3λ + 2μ)/(λ + μ).
+    pub fn softest_youngs_modulus(&self) -> f64 {
+        use crate::material::Material;
+        let at_rest = |model: &Model| {
+            let (mut shear, mut stretch) = (Mat3::zeros(), Mat3::zeros());
+            shear[(0, 1)] = 1.0;
+            stretch[(0, 0)] = 1.0;
+            let mu = model.stress_differential(&Mat3::identity(), &shear)[(0, 1)];
+            let lambda = model.stress_differential(&Mat3::identity(), &stretch)[(1, 1)];
+            crate::material::Lame { mu, lambda }.youngs_modulus()
+        };
+        std::iter::once(&self.model)
+            .chain(self.regions.iter().map(|(m, _)| m))
+            .map(at_rest)
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The material of tet t.
     #[inline]
     pub fn model_of(&self, t: usize) -> &Model {

@@ -250,8 +250,12 @@ impl Simulation {
     /// vertex), two bodies overlap, or a body through itself (the message names both bodies and
     /// an element of each).
     pub fn with_contact(mut self, setup: crate::contact::ContactSetup) -> Result<Self> {
-        let term =
+        let mut term =
             crate::contact::term::ContactTerm::new(setup, &self.body.mesh, self.body.masses());
+        term.match_material_stiffness(
+            self.body.softest_youngs_modulus(),
+            self.body.mesh.mean_edge_length(),
+        );
         if let Some(message) = term.intersection(&self.state.x) {
             // "invalid contact: the initial state …": obstacles and bodies alike.
             return Err(Error::parameter("contact", message));

@@ -20,6 +20,7 @@ use super::ContactSetup;
 use super::barrier::{
     barrier_derivatives, edge_edge_mollified_barrier, edge_edge_mollifier_threshold,
     initial_barrier_stiffness, min_barrier_stiffness, project_psd,
+    stiffness_matched_barrier_stiffness,
 };
 use super::broad::cross_candidates;
 use super::ccd::{
@@ -274,6 +275,19 @@ impl ContactTerm {
                 self.bbox_diagonal,
             );
             self.previous_min_distance = d2;
+        }
+    }
+
+    /// Raise κ_min (and κ, κ_max = 100 κ_min) to the stiffness that matches the bodies' own:
+    /// `youngs_modulus` (Pa, the softest body's) times the mean edge length `edge` (m) is the
+    /// stiffness of a surface vertex, and the barrier is made as stiff across a gap of d̂/2
+    /// ([`stiffness_matched_barrier_stiffness`]). Never lowers κ_min. Call before the first step.
+    pub fn match_material_stiffness(&mut self, youngs_modulus: f64, edge: f64) {
+        let matched = stiffness_matched_barrier_stiffness(self.dhat, youngs_modulus * edge);
+        if matched.is_finite() && matched > self.kappa_min {
+            self.kappa_min = matched;
+            self.kappa_max = 100.0 * matched;
+            self.kappa = self.kappa.max(matched);
         }
     }
 

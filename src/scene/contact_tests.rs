@@ -239,3 +239,17 @@ fn a_missing_or_bad_mesh_file_is_named_at_the_mesh_key_and_in_the_file() {
     assert_eq!(setup.obstacles[0].obstacle.triangles().faces.len(), 1);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn contact_raises_the_default_newton_cap_but_never_a_given_one() {
+    let cap = |rest: &str| parse(rest).unwrap().solver_params().newton_max_iterations;
+    assert_eq!(cap(""), 20);
+    assert_eq!(cap("[solver]\ndt = 0.01\n"), 20);
+    assert_eq!(cap("[contact]\n"), super::CONTACT_NEWTON_MAX_ITERATIONS);
+    assert_eq!(
+        cap("[[obstacle]]\nplane = { point = [0, -1, 0], normal = [0, 1, 0] }\n"),
+        super::CONTACT_NEWTON_MAX_ITERATIONS
+    );
+    assert_eq!(cap("[contact]\n[solver]\nnewton_max_iterations = 20\n"), 20);
+    assert_eq!(cap("[contact]\n[solver]\nnewton_max_iterations = 7\n"), 7);
+}
