@@ -238,8 +238,14 @@ impl Amg {
         let fine = self.fine.memory();
         inventory.add("AMG: copy of the fine A (f64) and its pattern", fine.matrix);
         inventory.add("AMG: fine smoother and work vectors", fine.vectors);
-        inventory.add("AMG: fine T, P, Pᵀ (f64) and patterns", fine.transfer);
-        inventory.add("AMG: fine A·P (f64, Galerkin intermediate)", fine.product);
+        inventory.add(
+            "AMG: fine T and P (f64), patterns of P and Pᵀ",
+            fine.transfer,
+        );
+        inventory.add(
+            "AMG: fine A·P's pattern (its values live only in a refresh)",
+            fine.product,
+        );
         let coarse = self.coarse.iter().fold(LevelMemory::default(), |s, l| {
             let m = l.memory();
             LevelMemory {
