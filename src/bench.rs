@@ -123,6 +123,17 @@ pub struct SizeReport {
     pub roofline_ratio: f64,
     /// Resident memory at the end of the run, MB.
     pub resident_mb: f64,
+    /// The same per tet, bytes.
+    pub resident_bytes_per_tet: f64,
+    /// Where the memory goes at the end of the first run: the large buffers counted by part
+    /// (see [`Simulation::memory_inventory`]).
+    pub memory: crate::memory::Inventory,
+    /// Evaluation (SVDs, stresses, forces, tangents) per tet per Newton iteration, ns.
+    pub ns_per_tet_per_newton_evaluate: f64,
+    /// Assembly and the AMG set-up or refresh per tet per Newton iteration, ns.
+    pub ns_per_tet_per_newton_preconditioner: f64,
+    /// CG per tet per Newton iteration, ns.
+    pub ns_per_tet_per_newton_cg: f64,
     /// The beam workloads: the mean displacement of the tip face (the vertices at x = 4 m) after
     /// the first run, m: the answer, for comparing versions and settings (other codes' figures,
     /// measured elsewhere, are in docs/performance.md with where and when).
@@ -494,6 +505,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         let mut wall = 0.0;
         let mut all_converged = true;
         let mut report_mem = 0.0;
+        let mut memory = crate::memory::Inventory::default();
         let (mut tets, mut vertices, mut operator_bytes_per_tet) = (0, 0, 0.0);
         let mut factor = None;
         let mut contact = None;
@@ -522,6 +534,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             if repeat == 0 {
                 wall = seconds;
                 report_mem = resident_mb();
+                memory = sim.memory_inventory();
                 factor = factor_report(&sim, params.frames);
                 if params.workload == Workload::Beam {
                     tip = Some(tip_displacement(&sim));
@@ -547,6 +560,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         let bytes_per_tet =
             operator_bytes_per_tet + cg_vector_bytes_per_vertex() * vertices as f64 / tets as f64;
         let achieved = bytes_per_tet * tets as f64 * cg as f64 / cg_seconds.max(1e-12) / 1e9;
+        let per_newton_tet = 1e9 / (newton.max(1) as f64 * tets.max(1) as f64);
         sizes.push(SizeReport {
             n,
             tets,
@@ -565,6 +579,11 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             achieved_gb_per_s: achieved,
             roofline_ratio: achieved / stream,
             resident_mb: report_mem,
+            resident_bytes_per_tet: report_mem * 1024.0 * 1024.0 / tets.max(1) as f64,
+            memory,
+            ns_per_tet_per_newton_evaluate: timings.evaluate * per_newton_tet,
+            ns_per_tet_per_newton_preconditioner: timings.preconditioner * per_newton_tet,
+            ns_per_tet_per_newton_cg: timings.cg * per_newton_tet,
             tip_displacement: tip,
             all_converged,
             factor,
@@ -635,10 +654,10 @@ impl BenchReport {
                 )
             }
         );
-        s.push_str("   n      tets  s/frame  Newton/fr  CG/Newton  eval%  prec%   CG%  other%  ns/tet/it  B/tet/it   GB/s  roof  RSS MB   tip |u| m\n");
+        s.push_str("   n      tets  s/frame  Newton/fr  CG/Newton  eval%  prec%   CG%  other%  ns/tet/it  B/tet/it   GB/s  roof  RSS MB  KB/tet   tip |u| m\n");
         for r in &self.sizes {
             s.push_str(&format!(
-                "{:>4} {:>9} {:>8.3} {:>10.2} {:>10.1} {:>6.1} {:>6.1} {:>5.1} {:>7.1} {:>10.2} {:>9.0} {:>6.1} {:>5.2} {:>7.0} {:>11}{}\n",
+                "{:>4} {:>9} {:>8.3} {:>10.2} {:>10.1} {:>6.1} {:>6.1} {:>5.1} {:>7.1} {:>10.2} {:>9.0} {:>6.1} {:>5.2} {:>7.0} {:>7.2} {:>11}{}\n",
                 r.n,
                 r.tets,
                 r.seconds_per_frame,
@@ -653,11 +672,28 @@ impl BenchReport {
                 r.achieved_gb_per_s,
                 r.roofline_ratio,
                 r.resident_mb,
+                r.resident_bytes_per_tet / 1024.0,
                 r.tip_displacement.map_or("-".to_string(), |u| format!(
                     "{:.6}",
                     (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt()
                 )),
                 if r.all_converged { "" } else { "  (some frames did not converge)" }
+            ));
+            let tets = r.tets.max(1) as f64;
+            let mut parts: Vec<&crate::memory::MemoryPart> = r.memory.parts.iter().collect();
+            parts.sort_by_key(|p| std::cmp::Reverse(p.bytes));
+            s.push_str(&format!(
+                "     per Newton iteration and tet: evaluate {:.0} ns, assemble+AMG {:.0} ns, CG {:.0} ns; buffers counted {:.0} B/tet, largest: {}\n",
+                r.ns_per_tet_per_newton_evaluate,
+                r.ns_per_tet_per_newton_preconditioner,
+                r.ns_per_tet_per_newton_cg,
+                r.memory.total() as f64 / tets,
+                parts
+                    .iter()
+                    .take(4)
+                    .map(|p| format!("{} {:.0}", p.name, p.bytes as f64 / tets))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
             if let Some(f) = &r.factor {
                 s.push_str(&format!(

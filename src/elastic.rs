@@ -31,6 +31,16 @@ const CHUNK: usize = 512;
 /// The four per-vertex contributions of one tet.
 pub type TetVectors = [Vec3; 4];
 
+/// What the per-tet buffers keep of a tet's [`TetVectors`]: those of corners 1–3 (corner 0's is
+/// minus their sum, recomputed where it is gathered, with the same bits as [`tet_forces`]).
+type TetSlot = [Vec3; 3];
+
+/// The slot of `v`, whose corner 0 is minus the sum of the others.
+#[inline]
+fn slot_of(v: TetVectors) -> TetSlot {
+    [v[1], v[2], v[3]]
+}
+
 /// Vertex → incident (tet, corner) slots, in increasing tet order (compressed rows).
 #[derive(Clone, Debug, Default)]
 struct Incidence {
@@ -61,7 +71,7 @@ impl Incidence {
     }
 
     /// `out[v] (+)= Σ buffer[slot]` over v's slots, in slot order.
-    fn gather(&self, buffer: &[TetVectors], out: &mut [Vec3], accumulate: bool) {
+    fn gather(&self, buffer: &[TetSlot], out: &mut [Vec3], accumulate: bool) {
         out.par_iter_mut()
             .enumerate()
             .with_min_len(CHUNK)
@@ -69,7 +79,11 @@ impl Incidence {
                 let range = self.offsets[v] as usize..self.offsets[v + 1] as usize;
                 let mut sum = if accumulate { *o } else { Vec3::zeros() };
                 for &slot in &self.slots[range] {
-                    sum += buffer[slot as usize / 4][slot as usize % 4];
+                    let s = &buffer[slot as usize / 4];
+                    sum += match slot % 4 {
+                        0 => -(s[0] + s[1] + s[2]),
+                        c => s[c as usize - 1],
+                    };
                 }
                 *o = sum;
             });
@@ -279,6 +293,23 @@ impl ElasticBody {
         &self.bm
     }
 
+    /// The mesh and the rest data, into a memory inventory.
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        inventory.add(
+            "mesh: rest positions and tets",
+            vec_bytes(&self.mesh.positions) + vec_bytes(&self.mesh.tets),
+        );
+        inventory.add(
+            "rest data: Bm, W, masses, vertex-to-tet incidence",
+            vec_bytes(&self.bm)
+                + vec_bytes(&self.volume)
+                + vec_bytes(&self.mass)
+                + vec_bytes(&self.incidence.offsets)
+                + vec_bytes(&self.incidence.slots),
+        );
+    }
+
     /// F of tet t at positions x.
     #[inline]
     pub fn deformation_gradient(&self, x: &[Vec3], t: usize) -> Mat3 {
@@ -364,7 +395,7 @@ impl ElasticBody {
     pub fn add_forces(&self, x: &[Vec3], f: &mut [Vec3]) {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(f.len(), self.vertex_count());
-        let mut buffer = vec![[Vec3::zeros(); 4]; self.tet_count()];
+        let mut buffer = vec![[Vec3::zeros(); 3]; self.tet_count()];
         buffer
             .par_iter_mut()
             .enumerate()
@@ -374,7 +405,7 @@ impl ElasticBody {
                     self.model_of(t),
                     &self.deformation_gradient(x, t),
                 );
-                *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
+                *slot = slot_of(tet_forces(&stress, &self.bm[t], self.volume[t]));
             });
         self.incidence.gather(&buffer, f, true);
     }
@@ -411,7 +442,7 @@ impl ElasticBody {
                         .model_of(t)
                         .evaluate(&self.deformation_gradient(x, t), definiteness);
                     sum += self.volume[t] * psi;
-                    *slot = tet_forces(&stress, &self.bm[t], self.volume[t]);
+                    *slot = slot_of(tet_forces(&stress, &self.bm[t], self.volume[t]));
                     *tangent = tan;
                 }
                 *energy = sum;
@@ -466,13 +497,13 @@ impl ElasticBody {
         assert_eq!(kv.len(), self.vertex_count());
         assert_eq!(lin.tangents.len(), self.tet_count());
         if lin.damping.len() != self.tet_count() {
-            lin.damping = vec![[Vec3::zeros(); 4]; self.tet_count()];
+            lin.damping = vec![[Vec3::zeros(); 3]; self.tet_count()];
         }
         let how = damping.tangent(lin.definiteness);
         let shifted = damping.shift != 0.0;
         // One tet: its force and K_d·v slots; returns W·Ψ and, without a shift, Newton's
         // tangent and `adaptive`'s exact pieces.
-        let kernel = |t: usize, slot: &mut TetVectors, kv: &mut TetVectors| {
+        let kernel = |t: usize, slot: &mut TetSlot, kv: &mut TetSlot| {
             let (bm, w) = (&self.bm[t], self.volume[t]);
             let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * bm;
             let f = self.deformation_gradient(x, t);
@@ -483,9 +514,9 @@ impl ElasticBody {
                 let e = self.model_of(t).evaluate_damped(&f, &df_v, &how);
                 (e.psi, e.stress, e.damping, Some((e.tangent, e.exact)))
             };
-            *slot = tet_forces(&stress, bm, w);
+            *slot = slot_of(tet_forces(&stress, bm, w));
             // K_d·v = −(the force differential along v), as in `apply_stiffness`.
-            *kv = tet_forces(&(-dp), bm, w);
+            *kv = slot_of(tet_forces(&(-dp), bm, w));
             (w * psi, tangent)
         };
         let chunks = lin
@@ -580,7 +611,7 @@ impl ElasticBody {
     /// tet its tangent, Bm, W and vertex indices, the per-tet buffer written then read, and the
     /// incidence slots; per vertex the input read, the output written and the incidence offsets.
     pub fn matrix_free_bytes_per_product(&self) -> f64 {
-        let per_tet = std::mem::size_of::<Tangent>() + 72 + 8 + 32 + 2 * 96 + 16;
+        let per_tet = std::mem::size_of::<Tangent>() + 72 + 8 + 32 + 2 * 72 + 16;
         let per_vertex = 24 + 24 + 4;
         (per_tet * self.tet_count() + per_vertex * self.vertex_count()) as f64
     }
@@ -601,7 +632,7 @@ impl ElasticBody {
                     let dds = TetMesh::edge_matrix(dx, tet);
                     let dp = tangents[t].apply(&(dds * self.bm[t]));
                     // K·dx = −df: the force kernel with the sign flipped.
-                    *slot = tet_forces(&(-dp), &self.bm[t], self.volume[t]);
+                    *slot = slot_of(tet_forces(&(-dp), &self.bm[t], self.volume[t]));
                 }
             });
         self.incidence.gather(&lin.buffer, out, false);
@@ -708,14 +739,78 @@ fn upper_index(a: usize, b: usize) -> usize {
     [0, 4, 7, 9][a] + b - a
 }
 
-/// Per-tet scratch of the assembled path: element matrices and where their blocks go.
+/// The assembled path's split of the work: the tets each chunk of rows needs.
+///
+/// Each tet adds its element matrix straight into the blocks of the matrix (no per-tet element
+/// buffer). The rows are cut into chunks, each owning its rows' blocks; a chunk goes through the
+/// tets that touch its rows in tet order and adds their blocks in its rows (found by a binary
+/// search in the row), so a tet whose vertices fall in several chunks is computed once in each
+/// (a few percent of the tets on a well-numbered mesh). Every block so sums its tets in tet
+/// order, as a gather by rows does: the same bits for any thread count and any chunking.
 #[derive(Clone, Debug, Default)]
 pub struct AssemblyWork {
-    /// For each tet and (a, b), the position of block (tet[a], tet[b]) within row tet[a].
-    local: Vec<[u16; 16]>,
-    elements: Vec<[Mat3; 10]>,
-    /// The pattern `local` was computed for (contact may change the matrix's pattern).
-    pattern: BlockPattern,
+    /// Rows per chunk.
+    chunk_rows: usize,
+    /// The number of rows and tets the lists were made for.
+    made_for: (usize, usize),
+    /// Chunk c's tets are `tets[tet_start[c]..tet_start[c + 1]]`, in increasing order.
+    tet_start: Vec<u32>,
+    tets: Vec<u32>,
+}
+
+impl AssemblyWork {
+    /// Bytes held (a memory inventory for `tetsim bench`).
+    pub fn heap_bytes(&self) -> usize {
+        use crate::memory::vec_bytes;
+        vec_bytes(&self.tet_start) + vec_bytes(&self.tets)
+    }
+
+    /// Lay out the work for `tets` on `rows` rows.
+    fn prepare(&mut self, tets: &[[usize; 4]], rows: usize) {
+        // Two chunks per thread, at least 256 rows each: few chunks keep the tets computed
+        // twice few (a tet straddles chunks only near their borders: on the bench beam's
+        // lattice order, 19 % of the tets at n = 20 with four chunks, 37 % with eight), two
+        // per thread let work stealing even out some load. The result does not depend on it.
+        self.chunk_rows = rows
+            .div_ceil(2 * rayon::current_num_threads().max(1))
+            .max(256);
+        let chunk_rows = self.chunk_rows;
+        let chunks = rows.div_ceil(chunk_rows).max(1);
+        let mut count = vec![0u32; chunks + 1];
+        let mut seen = vec![u32::MAX; chunks];
+        let chunks_of = |t: usize, tet: &[usize; 4], seen: &mut [u32], f: &mut dyn FnMut(usize)| {
+            for &v in tet {
+                let c = v / chunk_rows;
+                if seen[c] != t as u32 {
+                    seen[c] = t as u32;
+                    f(c);
+                }
+            }
+        };
+        for (t, tet) in tets.iter().enumerate() {
+            chunks_of(t, tet, &mut seen, &mut |c| count[c + 1] += 1);
+        }
+        for c in 0..chunks {
+            count[c + 1] += count[c];
+        }
+        let mut fill = count.clone();
+        let mut list = vec![0u32; count[chunks] as usize];
+        seen.fill(u32::MAX);
+        for (t, tet) in tets.iter().enumerate() {
+            chunks_of(t, tet, &mut seen, &mut |c| {
+                list[fill[c] as usize] = t as u32;
+                fill[c] += 1;
+            });
+        }
+        log::debug!(
+            "assembly: {chunks} chunks of {chunk_rows} rows, {} tet computations for {} tets",
+            list.len(),
+            tets.len()
+        );
+        self.tet_start = count;
+        self.tets = list;
+        self.made_for = (rows, tets.len());
+    }
 }
 
 impl ElasticBody {
@@ -741,8 +836,8 @@ impl ElasticBody {
 
     /// `a += scale·K` (K from the tangents in `lin`); `a`'s pattern must hold
     /// [`ElasticBody::stiffness_pattern`] (it may hold more blocks). Element matrices are
-    /// computed per tet in parallel, then every row gathers its blocks in tet order: the same
-    /// bits for any thread count.
+    /// added straight into the blocks, coloured chunks in parallel (see [`AssemblyWork`]): the
+    /// same bits for any thread count.
     pub fn add_stiffness(
         &self,
         lin: &Linearization,
@@ -754,8 +849,7 @@ impl ElasticBody {
     }
 
     /// `a = scale·K` (`overwrite`: every block of `a` is set, zero where K has none) or
-    /// `a += scale·K`. Overwriting zeroes each row in the pass that fills it, which saves a
-    /// separate pass over the whole matrix.
+    /// `a += scale·K`. Overwriting zeroes each chunk of rows in the pass that fills it.
     pub fn write_stiffness(
         &self,
         lin: &Linearization,
@@ -766,43 +860,38 @@ impl ElasticBody {
     ) {
         assert_eq!(a.rows(), self.vertex_count());
         let tets = &self.mesh.tets;
-        if work.local.len() != tets.len() || work.pattern != a.pattern {
-            work.local = tets
-                .iter()
-                .map(|tet| {
-                    std::array::from_fn(|ab| {
-                        let (row, col) = (tet[ab / 4], tet[ab % 4]);
-                        let k = a.pattern.find(row, col).expect("pattern holds the mesh's");
-                        u16::try_from(k - a.pattern.row(row).start)
-                            .expect("a row of fewer than 65,536 blocks")
-                    })
-                })
-                .collect();
-            work.elements = vec![[Mat3::zeros(); 10]; tets.len()];
-            work.pattern.clone_from(&a.pattern);
+        if work.made_for != (a.rows(), tets.len()) {
+            work.prepare(tets, a.rows());
         }
-        work.elements
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(CHUNK)
-            .for_each(|(t, e)| {
-                *e = element_stiffness(&lin.tangents[t], &self.bm[t], self.volume[t]);
-                e.iter_mut().for_each(|b| *b *= scale);
-            });
-        let (inc, local, elements) = (&self.incidence, &work.local, &work.elements);
-        a.for_each_row_mut(|i, _cols, row| {
+        let work = &*work;
+        a.for_each_row_chunk_mut(work.chunk_rows, |c, rows, pattern, blocks| {
             if overwrite {
-                row.iter_mut().for_each(|b| *b = Mat3::zeros());
+                blocks.fill(Mat3::zeros());
             }
-            for &slot in &inc.slots[inc.offsets[i] as usize..inc.offsets[i + 1] as usize] {
-                let (t, corner) = (slot as usize / 4, slot as usize % 4);
-                for b in 0..4 {
-                    let block = if corner <= b {
-                        elements[t][upper_index(corner, b)]
-                    } else {
-                        elements[t][upper_index(b, corner)].transpose()
-                    };
-                    row[local[t][4 * corner + b] as usize] += block;
+            let first = pattern.row_start[rows.start] as usize;
+            let list = &work.tets[work.tet_start[c] as usize..work.tet_start[c + 1] as usize];
+            for &t in list {
+                let t = t as usize;
+                let e = element_stiffness(&lin.tangents[t], &self.bm[t], self.volume[t]);
+                let tet = &tets[t];
+                for i in 0..4 {
+                    if !rows.contains(&tet[i]) {
+                        continue;
+                    }
+                    let range = pattern.row(tet[i]);
+                    let cols = &pattern.cols[range.clone()];
+                    let start = range.start - first;
+                    for j in 0..4 {
+                        let block = if i <= j {
+                            e[upper_index(i, j)]
+                        } else {
+                            e[upper_index(j, i)].transpose()
+                        };
+                        let k = cols
+                            .binary_search(&(tet[j] as u32))
+                            .expect("the pattern holds the mesh's");
+                        blocks[start + k] += block * scale;
+                    }
                 }
             }
         });
@@ -872,9 +961,9 @@ pub struct Linearization {
     /// the projected ones, and the other way round after [`Linearization::use_exact`]).
     alternate: Vec<DiagonalPieces>,
     exact_active: bool,
-    buffer: Vec<TetVectors>,
+    buffer: Vec<TetSlot>,
     /// Damped steps only: per tet its K_d·v contributions (empty until the first one).
-    damping: Vec<TetVectors>,
+    damping: Vec<TetSlot>,
     /// The tangents are not those of the last evaluation yet (a damped step with a shift; see
     /// [`ElasticBody::damped_tangents_into`]).
     tangents_pending: bool,
@@ -898,7 +987,7 @@ impl Linearization {
             tangents: vec![rest; n],
             alternate,
             exact_active: false,
-            buffer: vec![[Vec3::zeros(); 4]; n],
+            buffer: vec![[Vec3::zeros(); 3]; n],
             damping: Vec::new(),
             tangents_pending: false,
             chunk_energy: vec![0.0; n.div_ceil(CHUNK)],
@@ -908,6 +997,21 @@ impl Linearization {
         }
     }
 
+    /// Its per-tet buffers, into a memory inventory.
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        inventory.add(
+            "per-tet tangents (U, V, diagonal-space pieces)",
+            vec_bytes(&self.tangents),
+        );
+        inventory.add(
+            "per-tet alternate pieces (adaptive)",
+            vec_bytes(&self.alternate),
+        );
+        inventory.add("per-tet force slots", vec_bytes(&self.buffer));
+        inventory.add("per-tet damping K·v slots", vec_bytes(&self.damping));
+    }
+
     /// Whether the tangents still wait for [`ElasticBody::damped_tangents_into`] (their counts
     /// are then those of an earlier linearization).
     pub fn tangents_pending(&self) -> bool {
@@ -915,18 +1019,23 @@ impl Linearization {
     }
 
     /// Count the clamped, strongly clamped and inverted tets of the tangents just made.
+    /// One parallel pass (integer sums: the same for any thread count).
     fn count_tets(&mut self) {
-        self.clamped_tets = self
+        let (clamped, strongly, inverted) = self
             .tangents
-            .iter()
-            .filter(|t| t.clamped_pieces() > 0)
-            .count();
-        self.strongly_clamped_tets = self
-            .tangents
-            .iter()
-            .filter(|t| t.strongly_clamped())
-            .count();
-        self.inverted_tets = self.tangents.iter().filter(|t| t.is_inverted()).count();
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| {
+                (
+                    (t.clamped_pieces() > 0) as usize,
+                    t.strongly_clamped() as usize,
+                    t.is_inverted() as usize,
+                )
+            })
+            .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        self.clamped_tets = clamped;
+        self.strongly_clamped_tets = strongly;
+        self.inverted_tets = inverted;
     }
 
     /// The definiteness treatment these tangents were built with.

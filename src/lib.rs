@@ -107,6 +107,7 @@ pub mod linear;
 pub mod manifest;
 pub mod material;
 pub mod math;
+pub mod memory;
 pub mod mesh;
 pub mod modes;
 pub mod monitor;

@@ -2,10 +2,11 @@
 //! a given size (so that an absurd mesh is refused with an estimate instead of aborting on
 //! allocation) and the cores a thread count can use.
 
-/// Resident bytes per tet of a run, measured with `/usr/bin/time -v tetsim run` on generated
-/// beams of 192,000 and 1,536,000 tets (547 MB and 4.35 GB peak: 2.8 KB a tet either way, with
-/// the default AMG preconditioner, 2 frames, pictures on); rounded up.
-pub const BYTES_PER_TET: f64 = 3000.0;
+/// Resident bytes per tet of a run, measured with `/usr/bin/time -v tetsim run
+/// scenes/bench/beam_n20.toml --frames 2` (192,000 tets, the default AMG preconditioner,
+/// damping, pictures on): 418 MB peak, 2.2 KB a tet (the peak includes A·P during an AMG
+/// refresh and the pictures; `tetsim bench --sizes 36` peaks at 1.9 KB a tet); rounded up.
+pub const BYTES_PER_TET: f64 = 2300.0;
 
 /// Memory the system can give a new allocation without swapping, bytes (Linux's MemAvailable;
 /// None where unknown, and then nothing is refused).

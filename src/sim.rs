@@ -343,6 +343,29 @@ impl Simulation {
         self.newton.bytes_per_cg_iteration(&self.body)
     }
 
+    /// Where the memory goes: the mesh, the state, Newton's and the linear solver's large
+    /// buffers (contact's are not counted), bytes per part.
+    pub fn memory_inventory(&self) -> crate::memory::Inventory {
+        use crate::memory::vec_bytes;
+        let mut inventory = crate::memory::Inventory::default();
+        self.body.add_memory(&mut inventory);
+        inventory.add(
+            "state and frame vectors (x, v, x₀, mask, loads, saved)",
+            vec_bytes(&self.state.x)
+                + vec_bytes(&self.state.v)
+                + vec_bytes(&self.initial)
+                + vec_bytes(&self.free)
+                + vec_bytes(&self.f_ext)
+                + vec_bytes(&self.xn)
+                + vec_bytes(&self.vn)
+                + vec_bytes(&self.saved.x)
+                + vec_bytes(&self.saved.v)
+                + vec_bytes(&self.ledger_x),
+        );
+        self.newton.add_memory(&mut inventory);
+        inventory
+    }
+
     /// The sparse Cholesky preconditioner's costs and counts (factorizations, failures, fill),
     /// when the scene uses it.
     #[cfg(feature = "direct")]

@@ -89,6 +89,17 @@ impl Newton {
             .bytes_per_iteration(body.matrix_free_bytes_per_product())
     }
 
+    /// Newton's buffers, the potential's and the linear solver's, into a memory inventory.
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        inventory.add(
+            "Newton: right-hand side, step, start",
+            vec_bytes(&self.rhs) + vec_bytes(&self.dx) + vec_bytes(&self.x_start),
+        );
+        self.potential.add_memory(inventory);
+        self.solver.add_memory(inventory);
+    }
+
     /// Replace the linear solver (under MPI: PETSc's, see [`crate::parallel`]).
     #[cfg(feature = "mpi")]
     pub fn set_linear_solver(&mut self, solver: Box<dyn LinearSolver>) {

@@ -95,6 +95,20 @@ pub struct Problem<'p, 'c> {
 }
 
 impl IncrementalPotential {
+    /// Its buffers, into a memory inventory (contact and further terms are not counted).
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        self.elasticity.add_memory(inventory);
+        let pattern = self
+            .pattern
+            .as_ref()
+            .map_or(0, |(p, _)| vec_bytes(&p.row_start) + vec_bytes(&p.cols));
+        inventory.add(
+            "potential: the Hessian's pattern, lumped diagonal",
+            pattern + vec_bytes(&self.diagonal),
+        );
+    }
+
     /// The built-in terms for `body`.
     pub fn new(body: &ElasticBody, params: &SolverParams) -> Self {
         IncrementalPotential {

@@ -216,6 +216,27 @@ impl Elasticity {
         &self.lin
     }
 
+    /// Its buffers, into a memory inventory.
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        self.lin.add_memory(inventory);
+        inventory.add(
+            "elasticity: per-vertex forces, K·v, scratch, diagonal blocks",
+            vec_bytes(&self.f_el)
+                + vec_bytes(&self.kv)
+                + vec_bytes(&self.scratch)
+                + vec_bytes(&self.blocks),
+        );
+        inventory.add(
+            "elasticity: the mesh's block pattern",
+            vec_bytes(&self.pattern.row_start) + vec_bytes(&self.pattern.cols),
+        );
+        inventory.add(
+            "assembly: the tets of each chunk of rows",
+            self.work.heap_bytes(),
+        );
+    }
+
     /// The elastic forces f_el at the last evaluation, N.
     pub fn forces(&self) -> &[Vec3] {
         &self.f_el

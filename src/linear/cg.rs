@@ -101,6 +101,16 @@ pub struct CgWorkspace {
 }
 
 impl CgWorkspace {
+    /// Bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::memory::vec_bytes;
+        vec_bytes(&self.r)
+            + vec_bytes(&self.z)
+            + vec_bytes(&self.p)
+            + vec_bytes(&self.ap)
+            + vec_bytes(&self.partials)
+    }
+
     /// Buffers for `n` vertices.
     pub fn new(n: usize) -> Self {
         let mut ws = CgWorkspace::default();

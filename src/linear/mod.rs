@@ -118,6 +118,8 @@ pub trait LinearSolver: Send {
     fn bytes_per_iteration(&self, matrix_free_bytes: f64) -> f64;
     /// Counts so far.
     fn report(&self) -> SolverReport;
+    /// Its buffers, into a memory inventory. Default: nothing counted.
+    fn add_memory(&self, _inventory: &mut crate::memory::Inventory) {}
     /// What shapes the coming solves, for a checkpoint ([`state::SolverState`]). Default: nothing.
     fn save_state(&self) -> state::SolverState {
         state::SolverState::Fresh
@@ -278,6 +280,24 @@ impl AssembledMatrix {
                 cg::conjugate_gradient(&mut CsrOperator(a), m, b, x, free, params, ws)
             }
             (None, None) => panic!("solve before prepare"),
+        }
+    }
+
+    /// Its matrices, into a memory inventory.
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        if let Some(a) = &self.a {
+            inventory.add(
+                "assembled A (f64 blocks, both triangles)",
+                vec_bytes(&a.values),
+            );
+            inventory.add(
+                "assembled A's pattern",
+                vec_bytes(&a.pattern.row_start) + vec_bytes(&a.pattern.cols),
+            );
+        }
+        if let Some(upper) = &self.upper {
+            inventory.add("assembled A's f32 upper triangle", upper.heap_bytes());
         }
     }
 

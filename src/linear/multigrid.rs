@@ -13,7 +13,7 @@ use super::state::{
     HierarchyState, MultigridState, SolverState, blocks_out, matrix_in, vectors_in, vectors_out,
 };
 use super::{AssembledMatrix, LinearSolver, LinearSolverParams, SolverReport, System};
-use crate::math::{Mat3, Vec3};
+use crate::math::Vec3;
 
 /// The hierarchy is refreshed (numbers recomputed on the kept aggregates) when CG needed more
 /// than this factor times the iterations per decade of residual reduction of the first solve
@@ -48,10 +48,9 @@ pub struct Multigrid {
     /// Whether the last CG solve stopped at its iteration cap.
     last_capped: bool,
     report: SolverReport,
-    /// The free-DOF mask and A the hierarchy was built from, and whether a refresh followed:
-    /// what a checkpoint stores to rebuild it bit for bit (see [`super::state`]).
-    built: Option<(Vec<Vec3>, Vec<Mat3>)>,
-    refreshed: bool,
+    /// The free-DOF mask the hierarchy was built with: with its aggregates and the A of its last
+    /// refresh, what a checkpoint stores to rebuild it bit for bit (see [`super::state`]).
+    built_free: Option<Vec<Vec3>>,
 }
 
 impl Multigrid {
@@ -69,8 +68,7 @@ impl Multigrid {
                 name: "amg",
                 ..Default::default()
             },
-            built: None,
-            refreshed: false,
+            built_free: None,
         }
     }
 
@@ -144,13 +142,11 @@ impl LinearSolver for Multigrid {
                 amg.refresh(a);
                 self.baseline_rate = None;
                 self.report.refreshes += 1;
-                self.refreshed = true;
             }
             _ => {}
         }
         if self.report.builds != builds {
-            self.built = Some((free.to_vec(), a.values.clone()));
-            self.refreshed = false;
+            self.built_free = Some(free.to_vec());
         }
         if from_projected {
             self.matrix.assemble(system, free);
@@ -207,13 +203,25 @@ impl LinearSolver for Multigrid {
         self.report.clone()
     }
 
+    fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        use crate::memory::vec_bytes;
+        self.matrix.add_memory(inventory);
+        inventory.add("CG vectors", self.cg.heap_bytes());
+        if let Some(amg) = &self.amg {
+            amg.add_memory(inventory);
+        }
+        if let Some(free) = &self.built_free {
+            inventory.add("the DOF mask at the hierarchy's build", vec_bytes(free));
+        }
+    }
+
     fn save_state(&self) -> SolverState {
         let (generation, pattern) = self.matrix.saved();
-        let hierarchy = match (&self.amg, &self.built) {
-            (Some(amg), Some((free, built))) => Some(HierarchyState {
+        let hierarchy = match (&self.amg, &self.built_free) {
+            (Some(amg), Some(free)) => Some(HierarchyState {
                 free: vectors_out(free),
-                built: blocks_out(built),
-                refreshed: self.refreshed.then(|| blocks_out(amg.fine_values())),
+                aggregates: amg.aggregates(),
+                values: blocks_out(amg.fine_values()),
             }),
             _ => None,
         };
@@ -242,18 +250,15 @@ impl LinearSolver for Multigrid {
         let n = rest.len();
         match (&s.pattern, &s.hierarchy) {
             (Some(pattern), Some(h)) => {
-                let built = matrix_in(pattern, &h.built, n)?;
+                let a = matrix_in(pattern, &h.values, n)?;
                 if h.free.len() != n {
                     return Err("the stored multigrid mask does not fit the mesh".into());
                 }
                 let free = vectors_in(&h.free);
-                let mut amg = Amg::new(&built, rest, &free, &self.params);
-                if let Some(values) = &h.refreshed {
-                    amg.refresh(&matrix_in(pattern, values, n)?);
-                }
+                let amg = Amg::with_aggregates(&a, rest, &free, &self.params, &h.aggregates)
+                    .ok_or("the stored multigrid aggregates do not fit the mesh")?;
                 self.amg = Some(Box::new(amg));
-                self.built = Some((free, built.values));
-                self.refreshed = h.refreshed.is_some();
+                self.built_free = Some(free);
             }
             (_, None) => {}
             (None, Some(_)) => return Err("the stored multigrid hierarchy has no matrix".into()),

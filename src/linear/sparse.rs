@@ -128,6 +128,31 @@ fn rows_in_chunks(
     }
 }
 
+/// Run `f(c, rows, p, blocks)` on the chunks c in `chunks` of `chunk_rows` rows each, whose
+/// blocks are `values` (see [`BlockCsr::for_each_row_chunk_mut`]).
+fn row_chunks(
+    p: &BlockPattern,
+    chunk_rows: usize,
+    chunks: std::ops::Range<usize>,
+    values: &mut [Mat3],
+    f: &(impl Fn(usize, std::ops::Range<usize>, &BlockPattern, &mut [Mat3]) + Sync),
+) {
+    let n = p.rows();
+    let first_row = |chunk: usize| (chunk * chunk_rows).min(n);
+    if chunks.len() > 1 {
+        let mid = chunks.start + chunks.len() / 2;
+        let split = (p.row_start[first_row(mid)] - p.row_start[first_row(chunks.start)]) as usize;
+        let (head, tail) = values.split_at_mut(split);
+        rayon::join(
+            || row_chunks(p, chunk_rows, chunks.start..mid, head, f),
+            || row_chunks(p, chunk_rows, mid..chunks.end, tail, f),
+        );
+    } else if chunks.len() == 1 {
+        let c = chunks.start;
+        f(c, first_row(c)..first_row(c + 1), p, values);
+    }
+}
+
 /// A symmetric matrix of 3×3 blocks on a [`BlockPattern`], full pattern, f64.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BlockCsr {
@@ -178,6 +203,24 @@ impl BlockCsr {
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Mat3]) + Sync) {
         let chunks = self.pattern.rows().div_ceil(ROW_CHUNK);
         rows_in_chunks(&self.pattern, 0..chunks, &mut self.values, &f);
+    }
+
+    /// Run `f(c, rows, the pattern, blocks of those rows)` for the chunks c of `chunk_rows`
+    /// consecutive rows, in parallel (the chunks' blocks are disjoint slices; handed out by
+    /// halving with `rayon::join`, without allocating: this runs once per Newton iterate).
+    pub fn for_each_row_chunk_mut(
+        &mut self,
+        chunk_rows: usize,
+        f: impl Fn(usize, std::ops::Range<usize>, &BlockPattern, &mut [Mat3]) + Sync,
+    ) {
+        let chunks = self.rows().div_ceil(chunk_rows.max(1));
+        row_chunks(
+            &self.pattern,
+            chunk_rows.max(1),
+            0..chunks,
+            &mut self.values,
+            &f,
+        );
     }
 
     /// Add `d[i]·I` to every diagonal block (a lumped mass).
@@ -298,6 +341,15 @@ impl UpperF32 {
     /// Block rows.
     pub fn rows(&self) -> usize {
         self.row_start.len().saturating_sub(1)
+    }
+
+    /// Bytes held: values, indices, spill buffers.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::memory::vec_bytes;
+        vec_bytes(&self.row_start)
+            + vec_bytes(&self.cols)
+            + vec_bytes(&self.values)
+            + vec_bytes(&self.spill_buffer)
     }
 
     /// Bytes of the stored matrix: values and column indices, row starts.

@@ -2,11 +2,10 @@
 //! store (see [`crate::checkpoint`]), so that a resumed run solves exactly as one never stopped.
 //!
 //! A multigrid hierarchy is several times the size of A and full of derived arrays, but it is a
-//! pure function of two matrices: its aggregates and patterns come from the A it was built on,
-//! its numbers from the A of its last refresh (a refresh gives the bits of a fresh build: see
-//! [`super::amg`]). Those two matrices (one when no refresh followed the build), the mask of
-//! constrained DOFs at the build and the reuse rule's counters are what is stored; the hierarchy
-//! is rebuilt from them on resume.
+//! pure function of its aggregates (found from the A it was built on) and the A of its last
+//! build or refresh (a refresh gives the bits of a fresh build on the kept aggregates: see
+//! [`super::amg`]). Those aggregates, that matrix, the mask of constrained DOFs at the build and
+//! the reuse rule's counters are what is stored; the hierarchy is rebuilt from them on resume.
 
 use serde::{Deserialize, Serialize};
 
@@ -48,15 +47,16 @@ pub struct MultigridState {
     pub counts: [usize; 3],
 }
 
-/// The matrices a multigrid hierarchy was made from.
+/// What a multigrid hierarchy was made from.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct HierarchyState {
     /// The 0/1 mask of free DOFs at the build.
     pub free: Vec<[f64; 3]>,
-    /// A's blocks at the build (column-major 3×3).
-    pub built: Vec<[f64; 9]>,
-    /// A's blocks at the last refresh, when one followed the build.
-    pub refreshed: Option<Vec<[f64; 9]>>,
+    /// Each level's aggregates, finest first: the aggregate of each row (`u32::MAX`: none) and
+    /// the number of aggregates.
+    pub aggregates: Vec<(Vec<u32>, usize)>,
+    /// A's blocks at the last build or refresh (column-major 3×3).
+    pub values: Vec<[f64; 9]>,
 }
 
 /// Blocks as plain arrays (column-major), bit for bit.

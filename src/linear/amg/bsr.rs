@@ -52,6 +52,12 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
         self.pattern.rows()
     }
 
+    /// Bytes held: blocks and pattern.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::memory::vec_bytes;
+        vec_bytes(&self.values) + vec_bytes(&self.pattern.row_start) + vec_bytes(&self.pattern.cols)
+    }
+
     /// Number of stored blocks.
     pub fn blocks(&self) -> usize {
         self.pattern.blocks()
@@ -75,6 +81,29 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
             .enumerate()
             .with_min_len(ROW_CHUNK)
             .for_each(|(i, yi)| *yi = self.row_product(i, x));
+    }
+
+    /// `y = Mᵀ·x`, with `pattern` and `map` the transpose's pattern and, for each of its
+    /// blocks, the block of `self` it mirrors (from [`Bsr::transpose_pattern`]): the bits of
+    /// [`Bsr::multiply`] with the stored transpose, without storing it.
+    pub fn multiply_transposed(
+        &self,
+        pattern: &BlockPattern,
+        map: &[u32],
+        x: &[Vector<R>],
+        y: &mut [Vector<C>],
+    ) {
+        debug_assert_eq!(y.len(), pattern.rows());
+        y.par_iter_mut()
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, yi)| {
+                let mut sum = Vector::<C>::zeros();
+                for k in pattern.row(i) {
+                    sum += self.values[map[k] as usize].transpose() * x[pattern.cols[k] as usize];
+                }
+                *yi = sum;
+            });
     }
 
     /// `y += M·x`.
@@ -163,6 +192,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     }
 
     /// Fill `t` (from [`Bsr::transpose_pattern`]) with the transposed blocks.
+    #[cfg(test)]
     pub fn transpose_into(&self, t: &mut Bsr<C, R>, map: &[u32]) {
         t.values
             .par_iter_mut()
@@ -205,6 +235,18 @@ pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
     out: &mut Bsr<R, C>,
     upper: bool,
 ) {
+    product_with_into(&a.pattern, |k| a.values[k], b, out, upper);
+}
+
+/// [`product_into`] with a's blocks given by a function of their index on `a_pattern` (a
+/// transpose read through its map, say).
+pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
+    a_pattern: &BlockPattern,
+    a_block: impl Fn(usize) -> Block<R, K> + Sync,
+    b: &Bsr<K, C>,
+    out: &mut Bsr<R, C>,
+    upper: bool,
+) {
     out.for_each_row_mut(|i, cols, row| {
         let first = if upper {
             cols.partition_point(|&j| (j as usize) < i)
@@ -214,9 +256,9 @@ pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
         row[first..].iter_mut().for_each(|v| *v = Block::zeros());
         let cols = &cols[first..];
         let row = &mut row[first..];
-        for ka in a.row(i) {
-            let k = a.pattern.cols[ka] as usize;
-            let block = &a.values[ka];
+        for ka in a_pattern.row(i) {
+            let k = a_pattern.cols[ka] as usize;
+            let block = a_block(ka);
             let range = b.row(k);
             // Columns below the first wanted one are skipped without a search.
             let bcols = &b.pattern.cols[range.clone()];

@@ -28,8 +28,11 @@ mod smoother;
 
 use std::time::Instant;
 
-use self::aggregate::{MODES, aggregate, strong_neighbours, tentative};
-use self::bsr::{Block, Bsr, Vector, mirror_lower, mirror_pairs, product_into, product_pattern};
+use self::aggregate::{Aggregates, MODES, NONE, aggregate, strong_neighbours, tentative};
+use self::bsr::{
+    Block, Bsr, Vector, mirror_lower, mirror_pairs, product_into, product_pattern,
+    product_with_into,
+};
 use self::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
 use crate::linear::cg::Preconditioner;
 use crate::linear::sparse::BlockCsr;
@@ -126,6 +129,63 @@ impl Amg {
     /// of the vertices at `positions` as near-nullspace; `free` is the 0/1 mask per vertex and
     /// component (constrained components carry no mode).
     pub fn new(a: &BlockCsr, positions: &[Vec3], free: &[Vec3], params: &AmgParams) -> Amg {
+        Self::build(a, positions, free, params, None)
+    }
+
+    /// The hierarchy [`Amg::new`] builds, on given aggregates (those of
+    /// [`Amg::aggregates`], one list per level above the coarsest) instead of aggregates found
+    /// from `a`: the same bits as a build on the matrix those aggregates came from followed by a
+    /// refresh with `a`. What a checkpoint restores (see [`crate::linear::state`]). None when
+    /// the aggregates do not fit `a`.
+    pub fn with_aggregates(
+        a: &BlockCsr,
+        positions: &[Vec3],
+        free: &[Vec3],
+        params: &AmgParams,
+        aggregates: &[(Vec<u32>, usize)],
+    ) -> Option<Amg> {
+        // Each level's aggregates must number that level's rows, and the next level has
+        // as many rows as this one has aggregates.
+        let mut rows = a.rows();
+        for (of, count) in aggregates {
+            if of.len() != rows || of.iter().any(|&g| g != NONE && g as usize >= *count) {
+                return None;
+            }
+            rows = *count;
+        }
+        let given: Vec<Aggregates> = aggregates
+            .iter()
+            .map(|(of, count)| Aggregates {
+                of: of.clone(),
+                count: *count,
+            })
+            .collect();
+        Some(Self::build(a, positions, free, params, Some(&given)))
+    }
+
+    /// Each level's aggregates (finest first; the coarsest level has none): the aggregate of
+    /// each row, or `u32::MAX`, and the number of aggregates. Read off the tentative
+    /// prolongators, which hold one block per aggregated row.
+    pub fn aggregates(&self) -> Vec<(Vec<u32>, usize)> {
+        let mut out = Vec::new();
+        if let Coarse::Transfer(t) = &self.fine.coarse {
+            out.push(t.aggregates());
+        }
+        for level in &self.coarse {
+            if let Coarse::Transfer(t) = &level.coarse {
+                out.push(t.aggregates());
+            }
+        }
+        out
+    }
+
+    fn build(
+        a: &BlockCsr,
+        positions: &[Vec3],
+        free: &[Vec3],
+        params: &AmgParams,
+        given: Option<&[Aggregates]>,
+    ) -> Amg {
         let started = Instant::now();
         let n = a.rows();
         assert!(positions.len() == n && free.len() == n);
@@ -135,11 +195,11 @@ impl Amg {
             ncols: n,
         };
         let nullspace = rigid_modes(positions, free);
-        let (fine, mut next) = Level::build(fine_a, &nullspace, free.to_vec(), params, 0);
+        let (fine, mut next) = Level::build(fine_a, &nullspace, free.to_vec(), params, 0, given);
         let mut coarse: Vec<Level<6>> = Vec::new();
         while let Some((a_c, nullspace_c, mask_c)) = next {
             let depth = coarse.len() + 1;
-            let (level, more) = Level::build(a_c, &nullspace_c, mask_c, params, depth);
+            let (level, more) = Level::build(a_c, &nullspace_c, mask_c, params, depth, given);
             coarse.push(level);
             next = more;
         }
@@ -171,6 +231,34 @@ impl Amg {
     /// stores them: see [`crate::linear::state`]).
     pub fn fine_values(&self) -> &[crate::math::Mat3] {
         &self.fine.a.values
+    }
+
+    /// The hierarchy's arrays by kind, into a memory inventory.
+    pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
+        let fine = self.fine.memory();
+        inventory.add("AMG: copy of the fine A (f64) and its pattern", fine.matrix);
+        inventory.add("AMG: fine smoother and work vectors", fine.vectors);
+        inventory.add(
+            "AMG: fine T and P (f64), patterns of P and Pᵀ",
+            fine.transfer,
+        );
+        inventory.add(
+            "AMG: fine A·P's pattern (its values live only in a refresh)",
+            fine.product,
+        );
+        let coarse = self.coarse.iter().fold(LevelMemory::default(), |s, l| {
+            let m = l.memory();
+            LevelMemory {
+                matrix: s.matrix + m.matrix,
+                vectors: s.vectors + m.vectors,
+                transfer: s.transfer + m.transfer,
+                product: s.product + m.product,
+            }
+        });
+        inventory.add(
+            "AMG: coarse levels (matrices, transfers, vectors, factor)",
+            coarse.matrix + coarse.vectors + coarse.transfer + coarse.product,
+        );
     }
 
     /// Levels, sizes, operator complexity and timings.
@@ -256,14 +344,29 @@ enum Coarse<const B: usize> {
 struct Transfer<const B: usize> {
     tentative: Bsr<B, MODES>,
     p: Bsr<B, MODES>,
+    /// The pattern of Pᵀ (no values: its blocks are P's, `pt_map` says which) and its
+    /// number of columns.
     pt: Bsr<MODES, B>,
     pt_map: Vec<u32>,
+    /// The pattern of A·P; its values exist only inside [`Level::galerkin`].
     ap: Bsr<B, MODES>,
     mirror: Vec<(u32, u32)>,
     /// Coarse DOFs whose tentative column was dropped (decoupled with a unit diagonal).
     dropped: Vec<(u32, u8)>,
     bc: Vec<Vector<MODES>>,
     xc: Vec<Vector<MODES>>,
+}
+
+impl<const B: usize> Transfer<B> {
+    /// The aggregates T was made from: the column of each row's block, `NONE` for rows
+    /// without one, and the number of aggregates.
+    fn aggregates(&self) -> (Vec<u32>, usize) {
+        let t = &self.tentative;
+        let of = (0..t.rows())
+            .map(|i| t.row(i).next().map_or(NONE, |k| t.pattern.cols[k]))
+            .collect();
+        (of, t.ncols)
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -290,6 +393,7 @@ impl<const B: usize> Level<B> {
         mask: Vec<Vector<B>>,
         params: &AmgParams,
         depth: usize,
+        given: Option<&[Aggregates]>,
     ) -> (Self, Coarsened) {
         let n = a.rows();
         let mut level = Level {
@@ -308,7 +412,11 @@ impl<const B: usize> Level<B> {
         level.update_smoother(params);
         let dofs = B * n;
         let last = dofs <= params.max_coarse_dofs || depth + 1 >= params.max_levels;
-        let transfer = if last {
+        let transfer = if let Some(given) = given {
+            given
+                .get(depth)
+                .map(|aggregates| tentative(aggregates, nullspace))
+        } else if last {
             None
         } else {
             let strong = strong_neighbours(&level.a, params.strength_threshold);
@@ -328,9 +436,11 @@ impl<const B: usize> Level<B> {
         };
         let nc = tentative.ncols;
         let p = product_pattern(&level.a, &tentative);
-        let (pt, pt_map) = p.transpose_pattern();
-        let ap = product_pattern(&level.a, &p);
+        let (mut pt, pt_map) = p.transpose_pattern();
+        let mut ap = product_pattern(&level.a, &p);
         let a_c = product_pattern(&pt, &ap);
+        pt.values = Vec::new();
+        ap.values = Vec::new();
         let mirror = mirror_pairs(&a_c);
         let dropped = kept
             .iter()
@@ -407,9 +517,18 @@ impl<const B: usize> Level<B> {
                 row[at] += scale * tent.values[kt];
             }
         });
-        t.p.transpose_into(&mut t.pt, &t.pt_map);
+        // A·P lives only here (it is the largest array of the set-up, larger than A).
+        t.ap.values = vec![Block::zeros(); t.ap.blocks()];
         product_into(a, &t.p, &mut t.ap, false);
-        product_into(&t.pt, &t.ap, a_c, true);
+        let (p, map) = (&t.p, &t.pt_map);
+        product_with_into(
+            &t.pt.pattern,
+            |k| p.values[map[k] as usize].transpose(),
+            &t.ap,
+            a_c,
+            true,
+        );
+        t.ap.values = Vec::new();
         mirror_lower(a_c, &t.mirror);
         for &(g, c) in &t.dropped {
             let k = a_c.find(g as usize, g as usize).expect("diagonal");
@@ -450,13 +569,45 @@ impl<const B: usize> Level<B> {
             Coarse::Transfer(t) => {
                 chebyshev(a, dinv, *bounds, *degree, b, x, true, [r, d, d_next]);
                 a.residual(b, x, r);
-                t.pt.multiply(r, &mut t.bc);
+                t.p.multiply_transposed(&t.pt.pattern, &t.pt_map, r, &mut t.bc);
                 let (next, below) = rest.split_first_mut().expect("a level below");
                 next.cycle(&t.bc, &mut t.xc, below);
                 t.p.multiply_add(&t.xc, x);
                 chebyshev(a, dinv, *bounds, *degree, b, x, false, [r, d, d_next]);
             }
         }
+    }
+
+    /// Bytes this level holds, by kind.
+    fn memory(&self) -> LevelMemory {
+        use crate::memory::vec_bytes;
+        let mut m = LevelMemory {
+            matrix: self.a.heap_bytes(),
+            vectors: vec_bytes(&self.mask)
+                + vec_bytes(&self.dinv)
+                + vec_bytes(&self.eigen_start)
+                + vec_bytes(&self.r)
+                + vec_bytes(&self.d)
+                + vec_bytes(&self.d_next)
+                + vec_bytes(&self.partials),
+            ..Default::default()
+        };
+        match &self.coarse {
+            Coarse::Transfer(t) => {
+                m.transfer = t.tentative.heap_bytes()
+                    + t.p.heap_bytes()
+                    + t.pt.heap_bytes()
+                    + vec_bytes(&t.pt_map)
+                    + vec_bytes(&t.mirror)
+                    + vec_bytes(&t.dropped)
+                    + vec_bytes(&t.bc)
+                    + vec_bytes(&t.xc);
+                m.product = t.ap.heap_bytes();
+            }
+            Coarse::Direct(d) => m.matrix += d.heap_bytes(),
+            Coarse::Smooth => {}
+        }
+        m
     }
 
     fn is_direct(&self) -> bool {
@@ -471,6 +622,15 @@ impl<const B: usize> Level<B> {
             spectral_bound: self.bounds.1,
         }
     }
+}
+
+/// Bytes a level holds: its matrix, its vectors, its transfer operators, its A·P.
+#[derive(Clone, Copy, Debug, Default)]
+struct LevelMemory {
+    matrix: usize,
+    vectors: usize,
+    transfer: usize,
+    product: usize,
 }
 
 /// The coarsest level's solver: dense Cholesky when small enough and it factors, else smoothing.

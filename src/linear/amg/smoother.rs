@@ -190,6 +190,11 @@ pub(crate) struct Direct {
 }
 
 impl Direct {
+    /// Bytes held: the dense factor and the right-hand side.
+    pub fn heap_bytes(&self) -> usize {
+        8 * (self.factor.as_ref().map_or(0, |f| f.l_dirty().len()) + self.rhs.len())
+    }
+
     /// Factor A (exactly symmetric). If rounding made it indefinite, the diagonal is nudged up by
     /// 1e-12 of its largest entry until it factors (at most a few times).
     pub fn new<const B: usize>(a: &Bsr<B, B>) -> Self {
