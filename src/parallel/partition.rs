@@ -96,6 +96,76 @@ impl Partition {
         }
     }
 
+    /// Every rank's part, in one pass over the mesh (the same as [`Partition::part`] of each).
+    pub fn parts(&self, mesh: &TetMesh) -> Vec<Part> {
+        let mut tets = vec![Vec::new(); self.parts];
+        for (t, &p) in self.tet_part.iter().enumerate() {
+            tets[p as usize].push(t);
+        }
+        let mut owned = vec![Vec::new(); self.parts];
+        for (v, &o) in self.vertex_owner.iter().enumerate() {
+            owned[o as usize].push(v);
+        }
+        // Rank 0 keeps the vertices in no tet; other ranks own only vertices of their tets
+        // (the lowest rank among a vertex's tets owns it).
+        tets.into_iter()
+            .zip(owned)
+            .enumerate()
+            .map(|(rank, (tets, owned))| {
+                let mut ghosts: Vec<usize> = tets
+                    .iter()
+                    .flat_map(|&t| mesh.tets[t])
+                    .filter(|&v| self.vertex_owner[v] as usize != rank)
+                    .collect();
+                ghosts.sort_unstable();
+                ghosts.dedup();
+                let count = owned.len();
+                let mut vertices = owned;
+                vertices.extend(ghosts);
+                Part {
+                    tets,
+                    vertices,
+                    owned: count,
+                }
+            })
+            .collect()
+    }
+
+    /// How every rank's vertices map to the matrix rows and to the other ranks' vertices.
+    pub fn layouts(&self, parts: &[Part]) -> Vec<Layout> {
+        let (_, position) = self.global_order();
+        let counts = self.owned_counts();
+        let offsets: Vec<usize> = counts
+            .iter()
+            .scan(0, |at, &c| {
+                let o = *at;
+                *at += c;
+                Some(o)
+            })
+            .collect();
+        let mut layouts: Vec<Layout> = parts
+            .iter()
+            .enumerate()
+            .map(|(r, part)| Layout {
+                rows: part.vertices.iter().map(|&v| position[v]).collect(),
+                first_row: offsets[r],
+                neighbours: Vec::new(),
+            })
+            .collect();
+        for (r, part) in parts.iter().enumerate() {
+            for (k, &g) in part.vertices.iter().enumerate().skip(part.owned) {
+                let p = self.vertex_owner[g] as usize;
+                let local_at_owner = position[g] - offsets[p];
+                neighbour(&mut layouts[r], p).ghosts.push(k);
+                neighbour(&mut layouts[p], r).shared.push(local_at_owner);
+            }
+        }
+        for l in &mut layouts {
+            l.neighbours.sort_by_key(|n| n.rank);
+        }
+        layouts
+    }
+
     /// The owned vertices of every rank, in rank order then increasing index: the order of the
     /// distributed matrix's block rows. Returns (that order, each vertex's position in it).
     pub fn global_order(&self) -> (Vec<usize>, Vec<usize>) {
@@ -115,6 +185,44 @@ impl Partition {
             counts[o as usize] += 1;
         }
         counts
+    }
+}
+
+/// How one rank's vertices (owned, then ghosts) map to the distributed matrix's block rows and
+/// to the other ranks' vertices: what the halo exchanges send and receive.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// The block row of each of the rank's vertices.
+    pub rows: Vec<usize>,
+    /// The first row the rank owns (its owned vertices are the rows from there on).
+    pub first_row: usize,
+    /// The ranks it shares vertices with, in rank order.
+    pub neighbours: Vec<Neighbour>,
+}
+
+/// The vertices two ranks share, each list in increasing whole-body index (so both ranks list
+/// them in the same order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Neighbour {
+    /// The other rank.
+    pub rank: usize,
+    /// This rank's ghosts that the other rank owns (local indices).
+    pub ghosts: Vec<usize>,
+    /// This rank's owned vertices that are ghosts on the other rank (local indices).
+    pub shared: Vec<usize>,
+}
+
+fn neighbour(layout: &mut Layout, rank: usize) -> &mut Neighbour {
+    match layout.neighbours.iter().position(|n| n.rank == rank) {
+        Some(i) => &mut layout.neighbours[i],
+        None => {
+            layout.neighbours.push(Neighbour {
+                rank,
+                ghosts: Vec::new(),
+                shared: Vec::new(),
+            });
+            layout.neighbours.last_mut().expect("just pushed")
+        }
     }
 }
 

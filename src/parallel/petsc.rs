@@ -564,6 +564,9 @@ pub struct Comm(pub mpi::topology::SimpleCommunicator);
 // SAFETY: an MPI communicator is a handle; each rank uses it from one thread at a time (the
 // Newton loop), and MPI is initialised with at least MPI_THREAD_SINGLE semantics respected.
 unsafe impl Send for Comm {}
+// SAFETY: as above: the reductions and halo exchanges that share it run on the Newton loop's
+// thread, one at a time.
+unsafe impl Sync for Comm {}
 
 // SAFETY: see `Petsc`: owned by the solver, used from one thread at a time.
 unsafe impl Send for Vector {}
