@@ -43,6 +43,9 @@
 //! [`crate::linear::LinearSolver`] on PETSc) and `setup` ([`distribute`]: MPI's side of it).
 
 pub mod elastic;
+#[cfg(feature = "mpi")]
+#[allow(unsafe_code)]
+pub mod metis;
 pub mod partition;
 #[cfg(feature = "mpi")]
 #[allow(unsafe_code)]

@@ -53,6 +53,13 @@ impl Partition {
         let mut tet_part = vec![0u32; mesh.tets.len()];
         let mut order: Vec<usize> = (0..mesh.tets.len()).collect();
         bisect(&centroids, &mut order, 0, parts, &mut tet_part);
+        Self::from_tet_parts(mesh, parts, tet_part)
+    }
+
+    /// The partition that gives tet t to rank `tet_part[t]` (a graph partitioner's answer);
+    /// each vertex goes to the lowest rank among its tets'.
+    pub fn from_tet_parts(mesh: &TetMesh, parts: usize, tet_part: Vec<u32>) -> Self {
+        assert!(tet_part.iter().all(|&p| (p as usize) < parts));
         let mut vertex_owner = vec![u32::MAX; mesh.positions.len()];
         for (t, tet) in mesh.tets.iter().enumerate() {
             for &v in tet {
@@ -164,6 +171,12 @@ impl Partition {
             l.neighbours.sort_by_key(|n| n.rank);
         }
         layouts
+    }
+
+    /// Ghost vertices over all ranks: the halo a force completion sends (what a partitioner
+    /// should keep small).
+    pub fn ghost_count(&self, mesh: &TetMesh) -> usize {
+        self.parts(mesh).iter().map(|p| p.ghosts().len()).sum()
     }
 
     /// The owned vertices of every rank, in rank order then increasing index: the order of the

@@ -257,6 +257,16 @@ impl Driver for MpiDriver {
     }
 }
 
+/// METIS's partition of `mesh` over `ranks` (recursive coordinate bisection instead when
+/// `TETSIM_PARTITIONER=rcb`, for comparisons: see docs/scaling.md).
+fn partition(mesh: &crate::mesh::TetMesh, ranks: usize) -> Result<Partition, String> {
+    if std::env::var("TETSIM_PARTITIONER").is_ok_and(|p| p == "rcb") {
+        return Ok(Partition::new(mesh, ranks));
+    }
+    let (tet_part, _) = super::metis::partition_tets(mesh.positions.len(), &mesh.tets, ranks)?;
+    Ok(Partition::from_tet_parts(mesh, ranks, tet_part))
+}
+
 /// Why distributing failed.
 #[derive(Debug, thiserror::Error)]
 pub enum DistributeError {
@@ -286,7 +296,7 @@ pub fn distribute(
     let mut order = None;
     let (setup, setup_bytes) = match &whole {
         Some(sim) => {
-            let partition = Partition::new(&sim.body.mesh, size);
+            let partition = partition(&sim.body.mesh, size).map_err(DistributeError::Setup)?;
             let made = wire::setups(
                 &Whole {
                     body: &sim.body,
