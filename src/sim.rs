@@ -169,8 +169,10 @@ impl Simulation {
 
     /// Hand the stepping to `driver` (rank 0 under MPI): [`Simulation::step`] then advances the
     /// ranks' parts and this simulation's state is the gathered whole.
+    /// This simulation's own Newton is dropped for an empty one (its workspace is O(tets)).
     pub fn set_driver(&mut self, driver: Box<dyn crate::parallel::Driver>) {
         self.driver = Some(driver);
+        self.newton = Newton::new(&self.body.part(&[], &[]), &self.params);
     }
 
     /// Say that the body's mesh is a renumbering of the input mesh (see
