@@ -47,7 +47,10 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
                     .map(|l| l.trim_start_matches("VmHWM:").trim().to_string())
             })
             .unwrap_or_default();
-        eprintln!("mpi stats: {stats:?}, peak RSS {peak}");
+        // One write, so that mpirun does not interleave the ranks' lines.
+        let line = format!("mpi stats: {stats:?}, peak RSS {peak}\n");
+        use std::io::Write;
+        let _ = std::io::stderr().lock().write_all(line.as_bytes());
     }
     match result {
         Ok(code) if code == ExitCode::SUCCESS => Ok(code),
