@@ -316,6 +316,33 @@ mod tests {
             }
             let (order, position) = p.global_order();
             assert!(order.iter().enumerate().all(|(k, &v)| position[v] == k));
+            assert_eq!(
+                p.parts(&mesh),
+                all,
+                "{parts}: one pass gives the same parts"
+            );
+            // The halo lists: rank r's ghosts owned by q are q's shared vertices with r, in
+            // the same order; rows are the global order.
+            let layouts = p.layouts(&all);
+            for (r, l) in layouts.iter().enumerate() {
+                for (k, &v) in all[r].vertices.iter().enumerate() {
+                    assert_eq!(l.rows[k], position[v]);
+                }
+                for nb in &l.neighbours {
+                    let back = layouts[nb.rank]
+                        .neighbours
+                        .iter()
+                        .find(|m| m.rank == r)
+                        .expect("neighbours both ways");
+                    let mine: Vec<usize> = nb.ghosts.iter().map(|&k| all[r].vertices[k]).collect();
+                    let theirs: Vec<usize> = back
+                        .shared
+                        .iter()
+                        .map(|&k| all[nb.rank].vertices[k])
+                        .collect();
+                    assert_eq!(mine, theirs, "{parts}: ranks {r} and {}", nb.rank);
+                }
+            }
         }
     }
 

@@ -428,3 +428,117 @@ impl RankSetup {
         Simulation::new(self.body()?, self.boundary(), params, state).map_err(|e| e.to_string())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Scene;
+
+    /// The held-out dynamic cantilever of tests/mpi.rs: gravity, a clamp and a tip traction.
+    fn whole() -> Simulation {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mpi/cantilever.toml");
+        Simulation::from_scene(&Scene::load(&path).unwrap()).unwrap()
+    }
+
+    /// Every rank's set-up survives its bytes, and the parts add up to the whole: each tet once
+    /// with its rest data, each vertex owned once with the whole body's mass, the loads' total,
+    /// the constraints on every copy of a constrained vertex, ghosts with their owners' state.
+    #[test]
+    fn the_parts_add_up_to_the_whole() {
+        let sim = whole();
+        let body = &sim.body;
+        let n = body.vertex_count();
+        for ranks in [1, 2, 3, 4] {
+            let partition = Partition::new(&body.mesh, ranks);
+            let w = Whole {
+                body,
+                boundary: &sim.boundary,
+                state: &sim.state,
+                params: &sim.params,
+            };
+            let all = setups(&w, &partition).unwrap();
+            assert_eq!(all.len(), ranks);
+            let (mut tets, mut mass, mut load) = (0, 0.0, Vec3::zeros());
+            let mut owned_by = vec![usize::MAX; n];
+            let free = sim.free_mask();
+            for (r, s) in all.iter().enumerate() {
+                let again = RankSetup::from_bytes(&s.to_bytes()).unwrap();
+                assert_eq!(&again, s);
+                let part = again.simulation(sim.params.clone()).unwrap();
+                let local = &part.body;
+                tets += local.tet_count();
+                mass += local.masses().iter().sum::<f64>();
+                let owned = s.owned as usize;
+                for (k, &row) in s.rows.iter().enumerate() {
+                    // Rows are the global order: this rank's owned rows are consecutive.
+                    if k < owned {
+                        assert_eq!(row, s.first_row + k as u64);
+                    }
+                }
+                // Map back to whole-body vertices through the positions (the box's are distinct).
+                let whole_of: Vec<usize> = local
+                    .mesh
+                    .positions
+                    .iter()
+                    .map(|p| body.mesh.positions.iter().position(|q| q == p).unwrap())
+                    .collect();
+                for (k, &v) in whole_of.iter().enumerate() {
+                    assert_eq!(part.state.x[k], sim.state.x[v]);
+                    assert_eq!(part.free_mask()[k], free[v], "rank {r}: vertex {v}'s mask");
+                    if k < owned {
+                        assert_eq!(owned_by[v], usize::MAX, "vertex {v} owned twice");
+                        owned_by[v] = r;
+                        assert_eq!(local.masses()[k], body.masses()[v]);
+                    } else {
+                        assert_eq!(local.masses()[k], 0.0, "a ghost has no mass");
+                    }
+                }
+                for l in &part.boundary.loads {
+                    for (k, f) in &l.nodal {
+                        assert!(*k < owned, "loads only on owned vertices");
+                        load += f;
+                    }
+                }
+                // The local tets are the whole body's, with the same rest data.
+                for (t, tet) in local.mesh.tets.iter().enumerate() {
+                    let global = tet.map(|k| whole_of[k]);
+                    let g = body.mesh.tets.iter().position(|u| *u == global).unwrap();
+                    assert_eq!(local.rest_inverses()[t], body.rest_inverses()[g]);
+                    assert_eq!(local.volumes()[t], body.volumes()[g]);
+                }
+            }
+            assert_eq!(tets, body.tet_count());
+            assert!(
+                owned_by.iter().all(|&r| r != usize::MAX),
+                "every vertex owned"
+            );
+            let total: f64 = body.masses().iter().sum();
+            assert!((mass - total).abs() <= 1e-12 * total);
+            let whole_load: Vec3 = sim
+                .boundary
+                .loads
+                .iter()
+                .flat_map(|l| l.nodal.iter().map(|(_, f)| *f))
+                .sum();
+            assert!((load - whole_load).norm() <= 1e-12 * whole_load.norm());
+        }
+    }
+
+    /// A rank that read other solver settings than rank 0 is refused, not left to diverge.
+    #[test]
+    fn other_settings_are_refused() {
+        let sim = whole();
+        let w = Whole {
+            body: &sim.body,
+            boundary: &sim.boundary,
+            state: &sim.state,
+            params: &sim.params,
+        };
+        let s = setups(&w, &Partition::new(&sim.body.mesh, 2)).unwrap();
+        let mut other = sim.params.clone();
+        other.newton_tolerance *= 2.0;
+        let err = s[1].simulation(other).err().unwrap();
+        assert!(err.contains("other solver settings"), "{err}");
+    }
+}
