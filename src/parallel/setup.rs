@@ -297,17 +297,14 @@ pub fn distribute(
     let (setup, setup_bytes) = match &whole {
         Some(sim) => {
             let partition = partition(&sim.body.mesh, size).map_err(DistributeError::Setup)?;
-            let made = wire::setups(
-                &Whole {
-                    body: &sim.body,
-                    boundary: &sim.boundary,
-                    state: &sim.state,
-                    params: &sim.params,
-                },
-                &partition,
-            );
-            let mut setups = match made {
-                Ok(s) => s,
+            let whole = Whole {
+                body: &sim.body,
+                boundary: &sim.boundary,
+                state: &sim.state,
+                params: &sim.params,
+            };
+            let cutter = match wire::Cutter::new(&whole, &partition) {
+                Ok(c) => c,
                 Err(e) => {
                     // Tell the others (an empty message) before failing.
                     for r in 1..size {
@@ -316,15 +313,18 @@ pub fn distribute(
                     return Err(DistributeError::Setup(e));
                 }
             };
+            // One rank's set-up at a time: rank 0 never holds them all.
             let mut sent = 0;
-            for (r, s) in setups.iter().enumerate().skip(1) {
-                let bytes = s.to_bytes();
+            for r in 1..size {
+                let bytes = cutter.setup(r).to_bytes();
                 sent += bytes.len();
                 world.process_at_rank(r as i32).send(&bytes[..]);
             }
+            let mine = cutter.setup(0);
+            drop(cutter);
             let (global, _) = partition.global_order();
             order = Some((global, partition.owned_counts()));
-            (setups.swap_remove(0), sent)
+            (mine, sent)
         }
         None => {
             let (bytes, _) = root.receive_vec::<u8>();

@@ -168,36 +168,63 @@ pub struct Whole<'a> {
 /// Cut `whole` into the parts of `partition` (each with its [`Layout`]): one [`RankSetup`]
 /// per rank. Fails on a material whose parameters cannot be sent.
 pub fn setups(whole: &Whole<'_>, partition: &Partition) -> Result<Vec<RankSetup>, String> {
-    let body = whole.body;
-    let mesh = &body.mesh;
-    let parts = partition.parts(mesh);
-    let layouts = partition.layouts(&parts);
-    let (model, density, regions, tet_material) = body.materials();
-    let mut materials = vec![material_wire(&model, density)?];
-    for (m, d) in regions {
-        materials.push(material_wire(m, *d)?);
-    }
-    let pattern = crate::linear::sparse::BlockPattern::from_tets(mesh.positions.len(), &mesh.tets);
-    let mean_edge_length = mesh.mean_edge_length();
-    let ranks = parts.len();
-    Ok(parts
-        .iter()
-        .zip(&layouts)
-        .enumerate()
-        .map(|(rank, (part, layout))| {
-            setup(
-                whole,
-                partition,
-                &pattern,
-                part,
-                layout,
-                (rank, ranks),
-                mean_edge_length,
-                &materials,
-                tet_material,
-            )
+    let cutter = Cutter::new(whole, partition)?;
+    Ok((0..partition.parts).map(|r| cutter.setup(r)).collect())
+}
+
+/// What every rank's [`RankSetup`] is cut from, made once; [`Cutter::setup`] makes one rank's
+/// at a time, so that rank 0 holds one set-up besides the whole, not all of them.
+pub struct Cutter<'w, 'a> {
+    whole: &'w Whole<'a>,
+    partition: &'w Partition,
+    parts: Vec<Part>,
+    layouts: Vec<Layout>,
+    pattern: crate::linear::sparse::BlockPattern,
+    materials: Vec<(u8, f64, f64, f64)>,
+    mean_edge_length: f64,
+}
+
+impl<'w, 'a> Cutter<'w, 'a> {
+    /// Ready to cut `whole` by `partition`. Fails on a material whose parameters cannot be
+    /// sent.
+    pub fn new(whole: &'w Whole<'a>, partition: &'w Partition) -> Result<Self, String> {
+        let body = whole.body;
+        let mesh = &body.mesh;
+        let (model, density, regions, _) = body.materials();
+        let mut materials = vec![material_wire(&model, density)?];
+        for (m, d) in regions {
+            materials.push(material_wire(m, *d)?);
+        }
+        let parts = partition.parts(mesh);
+        let layouts = partition.layouts(&parts);
+        Ok(Cutter {
+            whole,
+            partition,
+            layouts,
+            parts,
+            pattern: crate::linear::sparse::BlockPattern::from_tets(
+                mesh.positions.len(),
+                &mesh.tets,
+            ),
+            materials,
+            mean_edge_length: mesh.mean_edge_length(),
         })
-        .collect())
+    }
+
+    /// Rank `rank`'s set-up.
+    pub fn setup(&self, rank: usize) -> RankSetup {
+        setup(
+            self.whole,
+            self.partition,
+            &self.pattern,
+            &self.parts[rank],
+            &self.layouts[rank],
+            (rank, self.parts.len()),
+            self.mean_edge_length,
+            &self.materials,
+            self.whole.body.materials().3,
+        )
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
