@@ -124,6 +124,15 @@ const QUADRATURE: f64 = 0.05;
 
 /// The audit of one step; updates `ledger` to the end state.
 pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
+    let sums = audit_sums(r, ledger);
+    audit_finish(&sums)
+}
+
+/// The sums over the vertices (and the elastic energies) one step's audit is made of, in
+/// [`audit_finish`]'s order. Under MPI each rank sums its own vertices and the sums are added
+/// over the ranks before [`audit_finish`] (see [`crate::parallel`]). Updates `ledger`'s
+/// per-vertex parts and its elastic energy to the end state.
+pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
     let masses = r.body.masses();
     let n = masses.len();
     let (mut load_work, mut boundary_work, mut damping, mut kinetic_change) = (0.0, 0.0, 0.0, 0.0);
@@ -170,15 +179,58 @@ pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
             }
         }
     }
-    let elastic_change = r.elastic - ledger.elastic;
+    let sums = [
+        load_work,
+        boundary_work,
+        damping,
+        kinetic_change,
+        residual_work,
+        gravitational,
+        potential_change,
+        kinetic_level,
+        curvature,
+        r.elastic,
+        ledger.elastic,
+        if quasistatic { 1.0 } else { 0.0 },
+    ];
+    ledger.elastic = r.elastic;
+    ledger.forces.clear();
+    ledger.forces.extend_from_slice(r.f_el);
+    sums
+}
+
+/// The sums of [`audit_sums`]: load work, boundary work, damping, kinetic change, residual
+/// work, gravitational energy, potential change, kinetic level, curvature, elastic energy at
+/// the end and at the start, and 1 for a quasistatic step (0 otherwise).
+pub type AuditSums = [f64; 12];
+
+/// The audit from its sums (added over the ranks under MPI; a quasistatic flag summed over
+/// N ranks is N).
+pub fn audit_finish(sums: &AuditSums) -> EnergyAudit {
+    let [
+        load_work,
+        boundary_work,
+        damping,
+        kinetic_change,
+        residual_work,
+        gravitational,
+        potential_change,
+        kinetic_level,
+        curvature,
+        elastic,
+        elastic_before,
+        quasistatic,
+    ] = *sums;
+    let quasistatic = quasistatic > 0.0;
+    let elastic_change = elastic - elastic_before;
     let remainder =
         load_work + boundary_work - damping - (kinetic_change + elastic_change + potential_change);
     let magnitude = load_work.abs()
         + boundary_work.abs()
         + damping.abs()
         + kinetic_level
-        + r.elastic.abs()
-        + ledger.elastic.abs()
+        + elastic.abs()
+        + elastic_before.abs()
         + potential_change.abs();
     // What a non-convex stretch may give back, plus half the curvature term for the trapezoid
     // estimate's own (third-order) error: on scenes/squash_release.toml's frame 15 (tets crushed
@@ -188,9 +240,6 @@ pub fn audit_step(r: &StepRecord<'_>, ledger: &mut Ledger) -> EnergyAudit {
     if quasistatic {
         tolerance += QUADRATURE * (load_work.abs() + boundary_work.abs() + elastic_change.abs());
     }
-    ledger.elastic = r.elastic;
-    ledger.forces.clear();
-    ledger.forces.extend_from_slice(r.f_el);
     EnergyAudit {
         gravitational,
         load_work,

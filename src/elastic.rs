@@ -22,7 +22,7 @@ use crate::material::{
 use crate::math::{Mat3, Vec3};
 use crate::mesh::TetMesh;
 
-mod part;
+pub mod part;
 
 /// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
 /// are the same on any machine.

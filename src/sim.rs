@@ -17,7 +17,7 @@ mod control;
 
 use std::time::Instant;
 
-use crate::audit::{Ledger, StepRecord, audit_step};
+use crate::audit::{Ledger, StepRecord, audit_finish, audit_sums};
 use crate::boundary::{Boundary, Clock};
 use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
@@ -71,6 +71,9 @@ pub struct Simulation {
     damping: Option<crate::modes::DampingResolution>,
     /// Probes and named constraints recorded every frame (SPEC §13).
     monitors: crate::monitor::Monitors,
+    /// Under MPI on rank 0: what steps the ranks' parts and gathers their state into this whole
+    /// simulation's, which then only reads and writes (see [`crate::parallel`]).
+    driver: Option<Box<dyn crate::parallel::Driver>>,
 }
 
 impl Simulation {
@@ -117,7 +120,7 @@ impl Simulation {
         if params.integrator == Integrator::Quasistatic {
             state.v.iter_mut().for_each(|v| *v = Vec3::zeros());
         }
-        let ledger = initial_ledger(&body, &boundary, &free, &state.x);
+        let ledger = initial_ledger(&body, &boundary, &free, &state.x, None);
         Ok(Simulation {
             ledger_x: state.x.clone(),
             saved_ledger: ledger.clone(),
@@ -139,6 +142,7 @@ impl Simulation {
             ramp_frames: None,
             damping: None,
             monitors: Default::default(),
+            driver: None,
         })
     }
 
@@ -147,6 +151,28 @@ impl Simulation {
     #[cfg(feature = "mpi")]
     pub fn newton_mut(&mut self) -> &mut Newton {
         &mut self.newton
+    }
+
+    /// Make this simulation one rank's part of a distributed one: every sum it and its Newton
+    /// decide on is then a sum over the ranks (see [`crate::parallel`]).
+    pub fn set_ranks(&mut self, ranks: std::sync::Arc<dyn crate::parallel::Ranks>) {
+        self.ledger = initial_ledger(
+            &self.body,
+            &self.boundary,
+            &self.free,
+            &self.state.x,
+            Some(&*ranks),
+        );
+        self.saved_ledger.clone_from(&self.ledger);
+        self.newton.set_ranks(ranks);
+    }
+
+    /// Hand the stepping to `driver` (rank 0 under MPI): [`Simulation::step`] then advances the
+    /// ranks' parts and this simulation's state is the gathered whole.
+    /// This simulation's own Newton is dropped for an empty one (its workspace is O(tets)).
+    pub fn set_driver(&mut self, driver: Box<dyn crate::parallel::Driver>) {
+        self.driver = Some(driver);
+        self.newton = Newton::new(&self.body.part(&[], &[]), &self.params);
     }
 
     /// Say that the body's mesh is a renumbering of the input mesh (see
@@ -400,9 +426,21 @@ impl Simulation {
     pub fn step(&mut self) -> Result<StepStats> {
         let frame = self.frame + 1;
         let started = Instant::now();
+        if let Some(driver) = &mut self.driver {
+            let stats = driver.step(&mut self.state)?;
+            self.frame = frame;
+            return Ok(stats);
+        }
         self.saved.clone_from(&self.state);
         if self.ledger_x != self.state.x {
-            self.ledger = initial_ledger(&self.body, &self.boundary, &self.free, &self.state.x);
+            let ranks = self.newton.ranks().cloned();
+            self.ledger = initial_ledger(
+                &self.body,
+                &self.boundary,
+                &self.free,
+                &self.state.x,
+                ranks.as_deref(),
+            );
         }
         self.saved_ledger.clone_from(&self.ledger);
         let mut attempt = 0;
@@ -455,6 +493,15 @@ impl Simulation {
         stats.kinetic_energy = self.kinetic_energy();
         stats.min_j = deformation.min_j;
         stats.inverted_elements = deformation.inverted;
+        if let Some(ranks) = self.newton.ranks() {
+            let mut sums = [stats.kinetic_energy, stats.inverted_elements as f64];
+            ranks.sum(&mut sums);
+            let mut least = [-stats.min_j];
+            ranks.max(&mut least);
+            stats.kinetic_energy = sums[0];
+            stats.inverted_elements = sums[1] as usize;
+            stats.min_j = -least[0];
+        }
         stats.wall_seconds = started.elapsed().as_secs_f64();
         self.ledger_x.clone_from(&self.state.x);
         self.frame = frame;
@@ -687,12 +734,17 @@ impl Simulation {
                 stats.friction_dissipation += contact.friction_dissipation();
             }
             self.state.t = t;
-            let finite = self
+            let mut finite = self
                 .state
                 .x
                 .iter()
                 .chain(&self.state.v)
                 .all(|p| p.iter().all(|c| c.is_finite()));
+            if let Some(ranks) = self.newton.ranks() {
+                let mut broken = [if finite { 0.0 } else { 1.0 }];
+                ranks.max(&mut broken);
+                finite = broken[0] == 0.0;
+            }
             if !finite {
                 return (stats, false);
             }
@@ -708,10 +760,18 @@ impl Simulation {
                 f_el: self.newton.elastic_forces(),
                 kv: self.newton.stiffness_velocity(),
                 residual: self.newton.residual(),
-                elastic: info.elastic_energy,
+                // Under MPI each rank's own share, summed over the ranks with the audit's sums.
+                elastic: match self.newton.ranks() {
+                    Some(_) => self.newton.potential().elasticity.energy(),
+                    None => info.elastic_energy,
+                },
                 dynamic: kind_is_dynamic.then_some((h, p.rayleigh_stiffness, p.rayleigh_mass)),
             };
-            stats.energy.add(&audit_step(&record, &mut self.ledger));
+            let mut sums = audit_sums(&record, &mut self.ledger);
+            if let Some(ranks) = self.newton.ranks() {
+                ranks.sum(&mut sums);
+            }
+            stats.energy.add(&audit_finish(&sums));
             if !info.converged && stop_early {
                 break;
             }
@@ -722,12 +782,23 @@ impl Simulation {
 
 /// The audit's ledger at the initial state: its elastic energy and, for the quasistatic trapezoid
 /// rule, the loads (zero at load factor 0) and reactions there.
-fn initial_ledger(body: &ElasticBody, boundary: &Boundary, free: &[Vec3], x: &[Vec3]) -> Ledger {
+/// Under MPI (`ranks`) the forces are completed over the ranks and the energy is this rank's
+/// share (the audit sums it).
+fn initial_ledger(
+    body: &ElasticBody,
+    boundary: &Boundary,
+    free: &[Vec3],
+    x: &[Vec3],
+    ranks: Option<&dyn crate::parallel::Ranks>,
+) -> Ledger {
     let n = body.vertex_count();
     let mut loads = vec![Vec3::zeros(); n];
     boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
     let mut forces = vec![Vec3::zeros(); n];
     body.add_forces(x, &mut forces);
+    if let Some(ranks) = ranks {
+        crate::parallel::complete_vectors(ranks, &mut forces);
+    }
     let reactions = forces
         .iter()
         .zip(&loads)

@@ -1,6 +1,8 @@
-//! `mpirun -n N tetsim run SCENE` (feature `mpi`): rank 0 runs `tetsim run` as usual (it writes
-//! every file), the other ranks run the same frames without writing; all of them evaluate
-//! their own tets and solve with PETSc (see `tetsim::parallel`).
+//! `mpirun -n N tetsim run SCENE` (feature `mpi`): rank 0 runs `tetsim run` as usual: it reads
+//! the scene and the mesh, sends every rank its part, and writes every file from the state it
+//! gathers; the other ranks read only the scene file's settings and receive their part. All of
+//! them step their own part and solve with PETSc (see `tetsim::parallel`). A failure on any
+//! rank aborts the job (the others would wait for it forever).
 
 use std::process::ExitCode;
 
@@ -24,7 +26,11 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     let universe = mpi::initialize().context("MPI could not be initialised")?;
     let world = universe.world();
     let rank = world.rank();
-    let result = if rank == 0 {
+    let result = if args.resume.is_some() {
+        Err(anyhow::anyhow!(
+            "--resume is not supported under mpirun yet; resume without mpirun"
+        ))
+    } else if rank == 0 {
         super::run::run(args, quiet, verbose)
     } else {
         worker(args)
@@ -32,9 +38,31 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     if let Some(stats) = tetsim::parallel::stats()
         && std::env::var_os("TETSIM_MPI_STATS").is_some()
     {
-        eprintln!("mpi stats: {stats:?}");
+        // Peak resident memory of this rank (Linux: VmHWM).
+        let peak = std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("VmHWM:"))
+                    .map(|l| l.trim_start_matches("VmHWM:").trim().to_string())
+            })
+            .unwrap_or_default();
+        // One write, so that mpirun does not interleave the ranks' lines.
+        let line = format!("mpi stats: {stats:?}, peak RSS {peak}\n");
+        use std::io::Write;
+        let _ = std::io::stderr().lock().write_all(line.as_bytes());
     }
-    result
+    match result {
+        Ok(code) if code == ExitCode::SUCCESS => Ok(code),
+        Ok(_) => world.abort(1),
+        Err(e) => {
+            // Rank 0 reports; every rank stops the job.
+            if rank == 0 || !e.to_string().is_empty() {
+                eprintln!("error (rank {rank}): {e:#}");
+            }
+            world.abort(1)
+        }
+    }
 }
 
 /// The scene as `tetsim run` reads it, with the same overrides.
@@ -51,8 +79,8 @@ pub fn load(args: &RunArgs) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-/// Put `sim` on the ranks when started by mpirun (nothing otherwise). Refuses contact, which
-/// is not distributed yet.
+/// On rank 0: put `sim` (the whole scene) on the ranks when started by mpirun (nothing
+/// otherwise). Refuses contact, which is not distributed yet.
 pub fn attach(sim: &mut Simulation, scene: &Scene) -> anyhow::Result<()> {
     if !launched() {
         return Ok(());
@@ -63,27 +91,26 @@ pub fn attach(sim: &mut Simulation, scene: &Scene) -> anyhow::Result<()> {
     );
     let petsc = Petsc::init(&scene.solver.petsc_options).context("initialising PETSc")?;
     let world = mpi::topology::SimpleCommunicator::world();
-    tetsim::parallel::distribute(sim, world, &petsc, "gamg")
+    let params = sim.params.clone();
+    tetsim::parallel::distribute(Some(sim), world, &petsc, "gamg", params)
         .context("distributing the simulation over the MPI ranks")?;
     Ok(())
 }
 
-/// A rank other than 0: the same frames, nothing written. A scene that fails to load fails on
-/// every rank alike (rank 0 reports it); a frame that fails stops every rank alike.
+/// A rank other than 0: reads the scene file's settings (not its mesh), receives its part from
+/// rank 0 and steps it; writes nothing. A frame that fails fails on every rank alike (their
+/// decisions are made on the same sums).
 fn worker(args: RunArgs) -> anyhow::Result<ExitCode> {
-    let Ok(scene) = load(&args) else {
-        return Ok(ExitCode::FAILURE);
-    };
-    let Ok(mut sim) = Simulation::from_scene(&scene) else {
-        return Ok(ExitCode::FAILURE);
-    };
-    if attach(&mut sim, &scene).is_err() {
-        return Ok(ExitCode::FAILURE);
-    }
-    while !sim.is_finished() {
-        if sim.step().is_err() {
-            return Ok(ExitCode::FAILURE);
-        }
+    let scene = load(&args)?;
+    let petsc = Petsc::init(&scene.solver.petsc_options).context("initialising PETSc")?;
+    let world = mpi::topology::SimpleCommunicator::world();
+    let mut driver =
+        tetsim::parallel::distribute(None, world, &petsc, "gamg", scene.solver_params())
+            .context("receiving this rank's part")?
+            .expect("a rank other than 0 drives its own part");
+    let mut nothing = tetsim::State::default();
+    while !driver.is_finished() {
+        tetsim::parallel::Driver::step(&mut driver, &mut nothing)?;
     }
     Ok(ExitCode::SUCCESS)
 }

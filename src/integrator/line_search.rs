@@ -9,7 +9,6 @@ use super::newton::{Evaluation, Newton};
 use super::problem::StepContext;
 use super::set_axpy;
 use super::stats::NewtonInfo;
-use crate::linear::cg;
 use crate::math::Vec3;
 
 /// Step halvings the line search tries before giving up on a Newton direction.
@@ -26,7 +25,7 @@ impl Newton {
         info: &mut NewtonInfo,
     ) -> Option<Evaluation> {
         self.x_start.copy_from_slice(x);
-        let slope = -cg::dot(&self.rhs, &self.dx, &mut self.partials); // ∇Φ·dx
+        let slope = -self.rhs_dot_dx(); // ∇Φ·dx
         let potential_merit = ctx.has_potential();
         // Never past what continuous collision detection finds free (1 without contact).
         let mut alpha = self.potential.max_step(ctx, x, &self.dx);

@@ -36,6 +36,9 @@ pub struct Newton {
     /// Whether continuous collision detection shortened the last line search's first trial
     /// (contact only): such a step says nothing about the tangent's quality.
     pub(super) collision_limited: bool,
+    /// Under MPI: the whole body's sums over the ranks (see [`crate::parallel`]); this rank's
+    /// vectors then hold its own vertices and a ghost layer that no sum counts.
+    ranks: Option<std::sync::Arc<dyn crate::parallel::Ranks>>,
 }
 
 /// Merit and residual of one evaluated iterate.
@@ -64,6 +67,7 @@ impl Newton {
             policy: TangentPolicy::new(params.definiteness),
             last_resort: true,
             collision_limited: false,
+            ranks: None,
         }
     }
 
@@ -104,6 +108,30 @@ impl Newton {
     #[cfg(feature = "mpi")]
     pub fn set_linear_solver(&mut self, solver: Box<dyn LinearSolver>) {
         self.solver = solver;
+    }
+
+    /// Make every sum Newton decides on a sum over the MPI ranks (see [`crate::parallel`]).
+    pub fn set_ranks(&mut self, ranks: std::sync::Arc<dyn crate::parallel::Ranks>) {
+        self.ranks = Some(ranks);
+    }
+
+    /// The ranks' sums, when distributed.
+    pub fn ranks(&self) -> Option<&std::sync::Arc<dyn crate::parallel::Ranks>> {
+        self.ranks.as_ref()
+    }
+
+    /// Add `values` over the ranks (nothing when not distributed).
+    fn sum_over_ranks(&self, values: &mut [f64]) {
+        if let Some(r) = &self.ranks {
+            r.sum(values);
+        }
+    }
+
+    /// `rhs·dx` over the whole body.
+    pub(super) fn rhs_dot_dx(&mut self) -> f64 {
+        let mut d = [cg::dot(&self.rhs, &self.dx, &mut self.partials)];
+        self.sum_over_ranks(&mut d);
+        d[0]
     }
 
     /// What the linear solver did so far.
@@ -171,7 +199,7 @@ impl Newton {
         // while the barrier's stiffness puts rounding far above a fraction of it: the tolerance
         // then also counts against the loads (‖f_ext‖, the weight), as users of the peers
         // expect. Without contact the floor is as it always was.
-        let mut floor = absolute_floor(ctx, x);
+        let mut floor = absolute_floor(ctx, x, self.ranks.as_deref());
         let drive = self.drive(ctx);
         if self.potential.contact.is_some() {
             let loads = cg::dot(ctx.f_ext, ctx.f_ext, &mut self.partials).sqrt();
@@ -367,8 +395,14 @@ impl Newton {
                 log::debug!("CG broke down after {} iterations", cg_info.iterations);
                 // The iterate so far minimises the quadratic model over the Krylov space built
                 // before the breakdown; with none, fall back to the preconditioned residual.
-                let useless = self.dx.iter().all(|d| *d == Vec3::zeros())
-                    || self.dx.iter().any(|d| !d.iter().all(|c| c.is_finite()));
+                let mut useless = [(self.dx.iter().all(|d| *d == Vec3::zeros())
+                    || self.dx.iter().any(|d| !d.iter().all(|c| c.is_finite())))
+                    as u8 as f64];
+                // Every rank must agree (the fallback is collective under MPI).
+                if let Some(r) = &self.ranks {
+                    r.max(&mut useless);
+                }
+                let useless = useless[0] > 0.0;
                 if useless {
                     self.solver.precondition(&self.rhs, &mut self.dx);
                     cg::project(&mut self.dx, ctx.free);
@@ -381,7 +415,10 @@ impl Newton {
     /// slope ∇Φ·dx = −rhs·dx must be negative. With γ > 0 there is no potential and the line
     /// search on ‖rhs‖ is the judge.
     fn is_descent(&mut self, ctx: &StepContext<'_>) -> bool {
-        !ctx.has_potential() || cg::dot(&self.rhs, &self.dx, &mut self.partials) > 0.0
+        if !ctx.has_potential() {
+            return true;
+        }
+        self.rhs_dot_dx() > 0.0
     }
 
     /// What drives the step, N: ‖f_ext‖ and, for a dynamic step, ‖M·vⁿ/h‖ over the free DOFs
@@ -396,7 +433,9 @@ impl Newton {
             }
             sum += d;
         }
-        sum.sqrt()
+        let mut sum = [sum];
+        self.sum_over_ranks(&mut sum);
+        sum[0].sqrt()
     }
 
     /// Evaluate every term at x (linearizing), fill `self.rhs` (masked) and `v` (dynamic), and
@@ -417,12 +456,15 @@ impl Newton {
         let potential = self
             .potential
             .evaluate(ctx, x, v, &mut self.rhs, &mut self.partials);
-        let residual = cg::dot(&self.rhs, &self.rhs, &mut self.partials).sqrt();
+        let squared = cg::dot(&self.rhs, &self.rhs, &mut self.partials);
+        // One reduction over the ranks for the three numbers an iterate is judged by.
+        let mut sums = [potential, self.potential.elasticity.energy(), squared];
+        self.sum_over_ranks(&mut sums);
         self.timings.evaluate += started.elapsed().as_secs_f64();
         Evaluation {
-            energy: self.potential.elasticity.energy(),
-            potential,
-            residual,
+            energy: sums[1],
+            potential: sums[0],
+            residual: sums[2].sqrt(),
         }
     }
 }
@@ -477,20 +519,34 @@ const FORCING_FIRST_EXACT: f64 = 0.01;
 /// the positions themselves is larger (a body far from the origin, e.g. moving at 1e4 m/s):
 /// an error of ε·|x| in the coordinates makes an elastic force error of about E·ℓ·ε·|x| per
 /// vertex and an inertia error of about m·ε·|x|/h².
-fn absolute_floor(ctx: &StepContext<'_>, x: &[Vec3]) -> f64 {
+/// Under MPI the mesh's figures are the whole body's (`ranks`).
+fn absolute_floor(
+    ctx: &StepContext<'_>,
+    x: &[Vec3],
+    ranks: Option<&dyn crate::parallel::Ranks>,
+) -> f64 {
     use crate::material::Material;
     let body = ctx.body;
     // The rest tangent's ∂P₁₁/∂F₁₁ = λ + 2μ stands in for E: a scale, not a measurement.
     let mut df = Mat3::zeros();
     df[(0, 0)] = 1.0;
     let stiffness = body.model.stress_differential(&Mat3::identity(), &df)[(0, 0)].abs();
-    let edge = body.mesh.mean_edge_length();
-    let reach = x.iter().map(|p| p.amax()).fold(0.0, f64::max);
-    let roots = (body.vertex_count() as f64).sqrt();
+    let mut maxima = [
+        x.iter().map(|p| p.amax()).fold(0.0, f64::max),
+        body.masses().iter().copied().fold(0.0, f64::max),
+    ];
+    let (edge, vertices) = match ranks {
+        Some(r) => {
+            r.max(&mut maxima);
+            (r.mean_edge_length(), r.vertex_count())
+        }
+        None => (body.mesh.mean_edge_length(), body.vertex_count()),
+    };
+    let [reach, mass] = maxima;
+    let roots = (vertices as f64).sqrt();
     let mut floor =
         stiffness * edge * edge * roots * 1e-12_f64.max(POSITION_ROUNDING * reach / edge);
     if let StepKind::Dynamic { h, .. } = ctx.kind {
-        let mass = body.masses().iter().copied().fold(0.0, f64::max);
         floor = floor.max(POSITION_ROUNDING * mass * reach / (h * h) * roots);
     }
     floor

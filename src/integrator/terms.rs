@@ -167,10 +167,9 @@ pub struct Elasticity {
     pattern: BlockPattern,
     work: AssemblyWork,
     energy: f64,
-    /// Under MPI: this rank's part of the body, evaluated here and summed over the ranks
-    /// (see [`crate::parallel`]); `lin` then holds the part's tangents.
-    #[cfg(feature = "mpi")]
-    parts: Option<crate::parallel::elastic::PartitionedElasticity>,
+    /// Under MPI (the body is then one rank's part): the forces' completion over the ranks
+    /// and the distributed matrix (see [`crate::parallel`]).
+    ghosts: Option<crate::parallel::elastic::Ghosts>,
 }
 
 impl Elasticity {
@@ -187,27 +186,23 @@ impl Elasticity {
             pattern: body.stiffness_pattern(),
             work: AssemblyWork::default(),
             energy: 0.0,
-            #[cfg(feature = "mpi")]
-            parts: None,
+            ghosts: None,
         }
     }
 
-    /// Elasticity evaluated by parts over MPI ranks (see [`crate::parallel`]): the matrix goes
-    /// to the parts' sink, the Hessian's pattern seen by the solvers is the diagonal only.
-    #[cfg(feature = "mpi")]
+    /// The elasticity of one rank's part of a distributed body (see [`crate::parallel`]):
+    /// forces completed over the ranks, the matrix sent to the ghosts' sink; the Hessian's
+    /// pattern the solvers see is the diagonal only.
     pub fn partitioned(
         body: &ElasticBody,
         definiteness: Definiteness,
-        parts: crate::parallel::elastic::PartitionedElasticity,
+        ghosts: crate::parallel::elastic::Ghosts,
     ) -> Self {
         let n = body.vertex_count();
-        let mut e = Self::new(parts.body(), definiteness);
-        e.f_el = vec![Vec3::zeros(); n];
-        e.kv = vec![Vec3::zeros(); n];
-        e.scratch = vec![Vec3::zeros(); n];
+        let mut e = Self::new(body, definiteness);
         let diagonal: Vec<Vec<u32>> = (0..n as u32).map(|i| vec![i]).collect();
         e.pattern = BlockPattern::from_rows(&diagonal);
-        e.parts = Some(parts);
+        e.ghosts = Some(ghosts);
         e
     }
 
@@ -259,9 +254,8 @@ impl Elasticity {
 
     /// `a = (1 + γ/h)·K`: every block of `a` set (see [`ElasticBody::write_stiffness`]).
     pub fn write_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
-        #[cfg(feature = "mpi")]
-        if let Some(parts) = &mut self.parts {
-            parts.write_matrix(&self.lin, 1.0, ctx.free);
+        if let Some(ghosts) = &self.ghosts {
+            ghosts.write_matrix(ctx.body, &self.lin, 1.0, ctx.free);
             a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
             return;
         }
@@ -305,34 +299,20 @@ impl Term for Elasticity {
     ) -> f64 {
         let body = ctx.body;
         let gamma = ctx.stiffness_damping();
-        #[cfg(feature = "mpi")]
-        let by_parts = self.parts.as_mut().map(|parts| {
-            let damping = (gamma != 0.0).then(|| Self::damping(ctx, v));
-            parts.evaluate(
-                x,
-                damping.as_ref(),
-                &mut self.lin,
-                &mut self.f_el,
-                &mut self.kv,
-            )
-        });
-        #[cfg(not(feature = "mpi"))]
-        let by_parts: Option<f64> = None;
-        match by_parts {
-            Some(energy) => self.energy = energy,
-            None => {
-                self.energy = if gamma != 0.0 {
-                    let damping = Self::damping(ctx, v);
-                    body.damped_forces_into(
-                        x,
-                        &damping,
-                        &mut self.lin,
-                        &mut self.f_el,
-                        &mut self.kv,
-                    )
-                } else {
-                    body.linearize_into(x, &mut self.lin, &mut self.f_el)
-                };
+        self.energy = if gamma != 0.0 {
+            let damping = Self::damping(ctx, v);
+            body.damped_forces_into(x, &damping, &mut self.lin, &mut self.f_el, &mut self.kv)
+        } else {
+            body.linearize_into(x, &mut self.lin, &mut self.f_el)
+        };
+        // Distributed: this rank's energy stays its share (Newton sums the shares).
+        if let Some(ghosts) = &mut self.ghosts {
+            ghosts.complete(&mut self.f_el);
+            if gamma != 0.0 {
+                ghosts.complete(&mut self.kv);
+            }
+            if !self.lin.tangents_pending() {
+                ghosts.count(&mut self.lin);
             }
         }
         let f_el = &self.f_el;
@@ -354,10 +334,12 @@ impl Term for Elasticity {
     }
 
     fn linearize(&mut self, ctx: &StepContext<'_>, x: &[Vec3], v: &[Vec3]) {
-        // Under MPI the parts made their tangents in `evaluate` (nothing is pending).
         if ctx.stiffness_damping() != 0.0 {
             ctx.body
                 .damped_tangents_into(x, &Self::damping(ctx, v), &mut self.lin);
+            if let Some(ghosts) = &self.ghosts {
+                ghosts.count(&mut self.lin);
+            }
         }
     }
 
@@ -366,16 +348,11 @@ impl Term for Elasticity {
     }
 
     fn add_hessian_product(&mut self, ctx: &StepContext<'_>, p: &[Vec3], out: &mut [Vec3]) {
-        #[cfg(feature = "mpi")]
-        if let Some(parts) = &mut self.parts {
-            parts.product(&mut self.lin, p, &mut self.scratch);
-        } else {
-            ctx.body
-                .apply_stiffness(&mut self.lin, p, &mut self.scratch);
-        }
-        #[cfg(not(feature = "mpi"))]
         ctx.body
             .apply_stiffness(&mut self.lin, p, &mut self.scratch);
+        if let Some(ghosts) = &mut self.ghosts {
+            ghosts.complete(&mut self.scratch);
+        }
         out.par_iter_mut()
             .zip(self.scratch.par_iter())
             .with_min_len(CHUNK)
@@ -384,16 +361,11 @@ impl Term for Elasticity {
 
     fn add_diagonal_blocks(&mut self, ctx: &StepContext<'_>, out: &mut [Mat3]) {
         self.blocks.resize(out.len(), Mat3::zeros());
-        #[cfg(feature = "mpi")]
-        if let Some(parts) = &mut self.parts {
-            parts.diagonal_blocks(&self.lin, &mut self.blocks);
-        } else {
-            ctx.body
-                .stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
-        }
-        #[cfg(not(feature = "mpi"))]
         ctx.body
             .stiffness_diagonal_blocks(&self.lin, &mut self.blocks);
+        if let Some(ghosts) = &mut self.ghosts {
+            ghosts.complete_blocks(&mut self.blocks);
+        }
         out.par_iter_mut()
             .zip(self.blocks.par_iter())
             .with_min_len(CHUNK)

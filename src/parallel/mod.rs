@@ -1,204 +1,109 @@
 //! Past one machine (SPEC §15): the same scene on many MPI ranks, with PETSc solving Newton's
 //! linear systems.
 //!
-//! **What is distributed.** The tets are split over the ranks ([`partition`]: recursive
-//! coordinate bisection; each vertex owned by one rank, the other vertices of a rank's tets its
-//! ghost layer). Each rank evaluates only its own tets with the serial material code
-//! ([`elastic::PartitionedElasticity`] on [`crate::elastic::ElasticBody::part`]), keeps only
-//! their tangents, and adds only their element matrices into a distributed PETSc block matrix
-//! (BAIJ, block size 3) whose block rows are owned by the vertices' ranks; PETSc's Krylov
-//! solver (CG with GAMG by default) solves Newton's systems on it ([`solver`]).
+//! **What each rank holds.** The tets are split over the ranks ([`partition`]); each vertex is
+//! owned by one rank, and the other vertices of a rank's tets are its ghost layer. Rank 0 reads
+//! the scene and the mesh, partitions it and sends every rank only its part ([`wire`]): its
+//! tets with their rest data, its vertices (owned first, then ghosts) with the whole body's
+//! masses of the owned ones, its share of the constraints and loads, and how its vertices map
+//! to the rows of the distributed matrix and to the other ranks' vertices. Each rank then runs
+//! an ordinary [`crate::Simulation`] of its part: the same Newton, line search, definiteness
+//! policy, loads, constraints and energy audit as a serial run, on vectors of its own and ghost
+//! vertices only (O(part) memory, nothing of size O(whole) on ranks other than 0).
 //!
-//! **What is replicated.** The vertex state (positions, velocities, loads, Newton's vectors)
-//! and the mesh are on every rank, and Newton (its line search, definiteness policy, loads,
-//! constraints, the energy audit) runs the serial code on every rank on the same bits: the
-//! whole-body sums of the parts are made by an all-gather summed in rank order, the solution
-//! is gathered whole to every rank. This keeps Newton exactly the serial one and the output
-//! (written by rank 0) the serial file set, at the price of O(vertices) memory and traffic
-//! per rank; docs/scaling.md measures and projects it, and says what a ghosted state changes.
+//! **The design: ghosts that no sum counts.** Ghost entries carry positions and velocities
+//! equal to their owners' (the local tets need them), and zero in everything that is summed:
+//! mass, loads, elastic forces, K·v, hence the right-hand side. Every sum the serial code makes
+//! over a rank's vectors is then a sum over the vertices it owns, and the serial code stays as
+//! it is with a handful of hooks: the sums Newton and the simulation decide on (residual,
+//! potential, slopes, the absolute floor, kinetic energy, min J, the audit) go through
+//! [`Ranks::sum`] and [`Ranks::max`], which add the ranks' partial sums in rank order (an
+//! all-gather of a few numbers, then the same additions on every rank: the same bits on every
+//! rank and on every run with the same rank count), so every rank takes the same decisions and
+//! makes the same collective calls. Two halo exchanges do the rest ([`Ranks::complete`]: the
+//! ghosts' element forces are added to their owners, in rank order, then zeroed; and
+//! [`Ranks::share`]: the owners' solution is copied to their ghosts). The alternative, an
+//! abstraction over every vector operation of Newton (a distributed vector type), would have
+//! rewritten Newton, the line search and the audit; this one adds reductions at the dozen
+//! places that compute a number, and each of them is a no-op in a serial run (bit-identical).
 //!
-//! Files: [`partition`] and [`elastic`] are plain Rust (tested without MPI); with the feature
-//! `mpi`, [`petsc`] (the FFI, all the `unsafe`) and [`solver`] (the [`crate::linear::LinearSolver`]
-//! on PETSc), and [`distribute`], which puts both into a [`crate::Simulation`].
+//! **Linear solves.** Each rank adds only its tets' element matrices into a distributed PETSc
+//! matrix (AIJ with block size 3; rows owned by the vertices' ranks) and PETSc's Krylov solver
+//! (CG with GAMG by default) solves Newton's systems ([`solver`]); the solution is copied to
+//! the ghosts.
+//!
+//! **Output.** Rank 0 keeps the whole mesh and gathers the owned positions and velocities of
+//! every rank at each frame ([`Driver`]), and writes the serial run's file set from them. That
+//! makes rank 0 O(whole) in memory (the mesh read, the serial set-up, the file writer); the
+//! other ranks are O(part). docs/scaling.md measures both.
+//!
+//! Files: [`partition`] (who owns what; plain Rust), [`elastic`] (the elasticity term's halo and
+//! matrix hooks), [`wire`] (rank 0's set-up of each rank's part, plain Rust, tested without
+//! MPI); with the feature `mpi`, [`petsc`] (the FFI, all the `unsafe`), [`solver`] (the
+//! [`crate::linear::LinearSolver`] on PETSc) and `setup` ([`distribute`]: MPI's side of it).
 
 pub mod elastic;
+#[cfg(feature = "mpi")]
+#[allow(unsafe_code)]
+pub mod metis;
 pub mod partition;
 #[cfg(feature = "mpi")]
 #[allow(unsafe_code)]
 pub mod petsc;
 #[cfg(feature = "mpi")]
+pub(crate) mod setup;
+#[cfg(feature = "mpi")]
 pub mod solver;
+pub mod wire;
 
 #[cfg(feature = "mpi")]
 pub use setup::{Stats, distribute, stats};
 
-#[cfg(feature = "mpi")]
-pub(crate) mod setup {
-    use std::sync::{Arc, Mutex};
+use crate::integrator::StepStats;
+use crate::math::Vec3;
+use crate::sim::State;
 
-    use mpi::datatype::PartitionMut;
-    use mpi::raw::AsRaw;
-    use mpi::topology::SimpleCommunicator;
-    use mpi::traits::*;
+/// The collective operations one rank's part needs (MPI's in a distributed run). Every rank
+/// must call them in the same order.
+pub trait Ranks: Send + Sync {
+    /// Add each of `values` over the ranks: the ranks' numbers are gathered and added in rank
+    /// order, so every rank gets the same bits.
+    fn sum(&self, values: &mut [f64]);
+    /// The largest of each of `values` over the ranks.
+    fn max(&self, values: &mut [f64]);
+    /// Vertices of the whole body.
+    fn vertex_count(&self) -> usize;
+    /// The whole mesh's mean edge length, m.
+    fn mean_edge_length(&self) -> f64;
+    /// Per-vertex numbers (`width` per vertex, this rank's vertices: owned, then ghosts): add
+    /// the ghosts' values to their owners' (the owner's own first, then the other ranks' in
+    /// rank order), then zero the ghosts.
+    fn complete(&self, values: &mut [f64], width: usize);
+    /// Per-vertex numbers: copy the owners' values to their ghosts.
+    fn share(&self, values: &mut [f64], width: usize);
+}
 
-    use super::elastic::{Gather, PartitionedElasticity};
-    use super::partition::{Part, Partition};
-    use super::petsc::{Comm, Ksp, Matrix, Petsc, PetscError, ToAll, Vector};
-    use super::solver::{PetscSolver, Shared};
-    use crate::Simulation;
-    use crate::integrator::terms::Elasticity;
-    use crate::linear::sparse::BlockPattern;
-
-    /// What one rank did, for `TETSIM_MPI_STATS` and docs/scaling.md.
-    #[derive(Clone, Debug, Default, PartialEq)]
-    pub struct Stats {
-        /// This rank and the number of ranks.
-        pub rank: usize,
-        /// Number of ranks.
-        pub ranks: usize,
-        /// Tets this rank evaluates.
-        pub tets: usize,
-        /// Vertices it owns (matrix block rows).
-        pub owned: usize,
-        /// Its ghost vertices.
-        pub ghosts: usize,
-        /// Linear solves, CG iterations and seconds in them.
-        pub solves: usize,
-        /// CG iterations over all solves.
-        pub cg_iterations: usize,
-        /// Seconds in PETSc's KSPSolve.
-        pub solve_seconds: f64,
-        /// Seconds assembling the PETSc matrix and setting up its preconditioner.
-        pub setup_seconds: f64,
-        /// Bytes PETSc sent from this rank inside KSPSolve (matrix products, V-cycles,
-        /// reductions: PETSc's logged sends).
-        pub petsc_solve_bytes: f64,
-        /// Bytes PETSc sent assembling the matrix (other ranks' rows of this rank's tets) and
-        /// setting up the preconditioner (GAMG's coarsening and Galerkin products).
-        pub petsc_setup_bytes: f64,
-        /// Bytes this rank sent in the elasticity all-gathers (forces, K·v, energy).
-        pub exchange_bytes: f64,
-        /// Elasticity evaluations (one per Newton iterate and line-search trial).
-        pub evaluations: usize,
+/// [`Ranks::complete`] on vectors.
+pub fn complete_vectors(ranks: &dyn Ranks, values: &mut [Vec3]) {
+    let mut flat: Vec<f64> = values.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
+    ranks.complete(&mut flat, 3);
+    for (v, f) in values.iter_mut().zip(flat.chunks_exact(3)) {
+        *v = Vec3::new(f[0], f[1], f[2]);
     }
+}
 
-    static STATS: Mutex<Option<Stats>> = Mutex::new(None);
-
-    /// Update this rank's statistics.
-    pub(crate) fn record(f: impl FnOnce(&mut Stats)) {
-        if let Some(s) = STATS.lock().expect("stats lock").as_mut() {
-            f(s)
-        }
+/// [`Ranks::share`] on vectors.
+pub fn share_vectors(ranks: &dyn Ranks, values: &mut [Vec3]) {
+    let mut flat: Vec<f64> = values.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
+    ranks.share(&mut flat, 3);
+    for (v, f) in values.iter_mut().zip(flat.chunks_exact(3)) {
+        *v = Vec3::new(f[0], f[1], f[2]);
     }
+}
 
-    /// This rank's statistics so far (None before [`distribute`]).
-    pub fn stats() -> Option<Stats> {
-        STATS.lock().expect("stats lock").clone()
-    }
-
-    /// Rank-ordered all-gather over MPI.
-    struct MpiGather(Comm);
-
-    impl Gather for MpiGather {
-        fn rank(&self) -> usize {
-            self.0.0.rank() as usize
-        }
-        fn size(&self) -> usize {
-            self.0.0.size() as usize
-        }
-        fn all_gather(&mut self, local: &[f64], counts: &[usize], out: &mut [f64]) {
-            let counts: Vec<i32> = counts.iter().map(|&c| c as i32).collect();
-            let displs: Vec<i32> = counts
-                .iter()
-                .scan(0, |at, &c| {
-                    let d = *at;
-                    *at += c;
-                    Some(d)
-                })
-                .collect();
-            let mut partition = PartitionMut::new(out, &counts[..], &displs[..]);
-            self.0.0.all_gather_varcount_into(local, &mut partition);
-            let bytes = (8 * local.len() * (counts.len() - 1)) as f64;
-            record(|s| s.exchange_bytes += bytes);
-        }
-    }
-
-    /// Put `sim` on the ranks of `world`: partition its mesh, give Newton this rank's part of
-    /// the elasticity and a PETSc solver (KSP with preconditioner `pc`, then the options
-    /// database). Every rank must call it with the same simulation.
-    pub fn distribute(
-        sim: &mut Simulation,
-        world: SimpleCommunicator,
-        petsc: &Petsc,
-        pc: &str,
-    ) -> Result<(), PetscError> {
-        let rank = world.rank() as usize;
-        let size = world.size() as usize;
-        let mesh = &sim.body.mesh;
-        let partition = Partition::new(mesh, size);
-        let parts: Vec<Part> = (0..size).map(|r| partition.part(mesh, r)).collect();
-        let (order, position) = partition.global_order();
-        let counts = partition.owned_counts();
-        let offset: usize = counts[..rank].iter().sum();
-        let owned: Vec<usize> = order[offset..offset + counts[rank]].to_vec();
-        // Preallocation from the mesh's vertex adjacency: blocks in this rank's columns and
-        // in others', per owned row.
-        let pattern = BlockPattern::from_tets(mesh.positions.len(), &mesh.tets);
-        let (mut diagonal, mut off) = (Vec::new(), Vec::new());
-        for &v in &owned {
-            let row = pattern.row(v);
-            let cols = &pattern.cols[row];
-            let mine = cols
-                .iter()
-                .filter(|&&c| partition.vertex_owner[c as usize] as usize == rank)
-                .count();
-            diagonal.push(mine);
-            off.push(cols.len() - mine);
-        }
-        drop(pattern);
-        let comm = world.as_raw();
-        let matrix = Matrix::new(petsc, comm, order.len(), &diagonal, &off)?;
-        let mut coords = Vector::new(petsc, comm, owned.len(), order.len())?;
-        let rest: Vec<f64> = owned
-            .iter()
-            .flat_map(|&v| {
-                let p = mesh.positions[v];
-                [p.x, p.y, p.z]
-            })
-            .collect();
-        let shared = Arc::new(Mutex::new(Shared::new(matrix, position.clone())));
-        shared
-            .lock()
-            .expect("fresh")
-            .matrix
-            .set_rigid_body_modes(&mut coords, &rest)?;
-        let ksp = Ksp::new(petsc, comm, pc)?;
-        let b = Vector::new(petsc, comm, owned.len(), order.len())?;
-        let x = Vector::new(petsc, comm, owned.len(), order.len())?;
-        let to_all = ToAll::new(&x)?;
-        *STATS.lock().expect("stats lock") = Some(Stats {
-            rank,
-            ranks: size,
-            tets: parts[rank].tets.len(),
-            owned: owned.len(),
-            ghosts: parts[rank].ghosts().len(),
-            ..Default::default()
-        });
-        let solver = PetscSolver::new(
-            petsc.clone(),
-            shared.clone(),
-            ksp,
-            (b, x, to_all),
-            owned,
-            offset,
-            position,
-        );
-        let pe =
-            PartitionedElasticity::new(&sim.body, parts, Box::new(MpiGather(Comm(world))), shared);
-        let elasticity = Elasticity::partitioned(&sim.body, sim.params.definiteness, pe);
-        let newton = sim.newton_mut();
-        newton.potential_mut().elasticity = elasticity;
-        newton.set_linear_solver(Box::new(solver));
-        Ok(())
-    }
+/// What steps a distributed simulation: advances every rank's part by one frame and, on rank
+/// 0, gathers the whole state into `whole`.
+pub trait Driver: Send {
+    /// One frame.
+    fn step(&mut self, whole: &mut State) -> crate::error::Result<StepStats>;
 }

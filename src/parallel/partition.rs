@@ -53,6 +53,13 @@ impl Partition {
         let mut tet_part = vec![0u32; mesh.tets.len()];
         let mut order: Vec<usize> = (0..mesh.tets.len()).collect();
         bisect(&centroids, &mut order, 0, parts, &mut tet_part);
+        Self::from_tet_parts(mesh, parts, tet_part)
+    }
+
+    /// The partition that gives tet t to rank `tet_part[t]` (a graph partitioner's answer);
+    /// each vertex goes to the lowest rank among its tets'.
+    pub fn from_tet_parts(mesh: &TetMesh, parts: usize, tet_part: Vec<u32>) -> Self {
+        assert!(tet_part.iter().all(|&p| (p as usize) < parts));
         let mut vertex_owner = vec![u32::MAX; mesh.positions.len()];
         for (t, tet) in mesh.tets.iter().enumerate() {
             for &v in tet {
@@ -96,6 +103,82 @@ impl Partition {
         }
     }
 
+    /// Every rank's part, in one pass over the mesh (the same as [`Partition::part`] of each).
+    pub fn parts(&self, mesh: &TetMesh) -> Vec<Part> {
+        let mut tets = vec![Vec::new(); self.parts];
+        for (t, &p) in self.tet_part.iter().enumerate() {
+            tets[p as usize].push(t);
+        }
+        let mut owned = vec![Vec::new(); self.parts];
+        for (v, &o) in self.vertex_owner.iter().enumerate() {
+            owned[o as usize].push(v);
+        }
+        // Rank 0 keeps the vertices in no tet; other ranks own only vertices of their tets
+        // (the lowest rank among a vertex's tets owns it).
+        tets.into_iter()
+            .zip(owned)
+            .enumerate()
+            .map(|(rank, (tets, owned))| {
+                let mut ghosts: Vec<usize> = tets
+                    .iter()
+                    .flat_map(|&t| mesh.tets[t])
+                    .filter(|&v| self.vertex_owner[v] as usize != rank)
+                    .collect();
+                ghosts.sort_unstable();
+                ghosts.dedup();
+                let count = owned.len();
+                let mut vertices = owned;
+                vertices.extend(ghosts);
+                Part {
+                    tets,
+                    vertices,
+                    owned: count,
+                }
+            })
+            .collect()
+    }
+
+    /// How every rank's vertices map to the matrix rows and to the other ranks' vertices.
+    pub fn layouts(&self, parts: &[Part]) -> Vec<Layout> {
+        let (_, position) = self.global_order();
+        let counts = self.owned_counts();
+        let offsets: Vec<usize> = counts
+            .iter()
+            .scan(0, |at, &c| {
+                let o = *at;
+                *at += c;
+                Some(o)
+            })
+            .collect();
+        let mut layouts: Vec<Layout> = parts
+            .iter()
+            .enumerate()
+            .map(|(r, part)| Layout {
+                rows: part.vertices.iter().map(|&v| position[v]).collect(),
+                first_row: offsets[r],
+                neighbours: Vec::new(),
+            })
+            .collect();
+        for (r, part) in parts.iter().enumerate() {
+            for (k, &g) in part.vertices.iter().enumerate().skip(part.owned) {
+                let p = self.vertex_owner[g] as usize;
+                let local_at_owner = position[g] - offsets[p];
+                neighbour(&mut layouts[r], p).ghosts.push(k);
+                neighbour(&mut layouts[p], r).shared.push(local_at_owner);
+            }
+        }
+        for l in &mut layouts {
+            l.neighbours.sort_by_key(|n| n.rank);
+        }
+        layouts
+    }
+
+    /// Ghost vertices over all ranks: the halo a force completion sends (what a partitioner
+    /// should keep small).
+    pub fn ghost_count(&self, mesh: &TetMesh) -> usize {
+        self.parts(mesh).iter().map(|p| p.ghosts().len()).sum()
+    }
+
     /// The owned vertices of every rank, in rank order then increasing index: the order of the
     /// distributed matrix's block rows. Returns (that order, each vertex's position in it).
     pub fn global_order(&self) -> (Vec<usize>, Vec<usize>) {
@@ -115,6 +198,44 @@ impl Partition {
             counts[o as usize] += 1;
         }
         counts
+    }
+}
+
+/// How one rank's vertices (owned, then ghosts) map to the distributed matrix's block rows and
+/// to the other ranks' vertices: what the halo exchanges send and receive.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// The block row of each of the rank's vertices.
+    pub rows: Vec<usize>,
+    /// The first row the rank owns (its owned vertices are the rows from there on).
+    pub first_row: usize,
+    /// The ranks it shares vertices with, in rank order.
+    pub neighbours: Vec<Neighbour>,
+}
+
+/// The vertices two ranks share, each list in increasing whole-body index (so both ranks list
+/// them in the same order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Neighbour {
+    /// The other rank.
+    pub rank: usize,
+    /// This rank's ghosts that the other rank owns (local indices).
+    pub ghosts: Vec<usize>,
+    /// This rank's owned vertices that are ghosts on the other rank (local indices).
+    pub shared: Vec<usize>,
+}
+
+fn neighbour(layout: &mut Layout, rank: usize) -> &mut Neighbour {
+    match layout.neighbours.iter().position(|n| n.rank == rank) {
+        Some(i) => &mut layout.neighbours[i],
+        None => {
+            layout.neighbours.push(Neighbour {
+                rank,
+                ghosts: Vec::new(),
+                shared: Vec::new(),
+            });
+            layout.neighbours.last_mut().expect("just pushed")
+        }
     }
 }
 
@@ -195,6 +316,33 @@ mod tests {
             }
             let (order, position) = p.global_order();
             assert!(order.iter().enumerate().all(|(k, &v)| position[v] == k));
+            assert_eq!(
+                p.parts(&mesh),
+                all,
+                "{parts}: one pass gives the same parts"
+            );
+            // The halo lists: rank r's ghosts owned by q are q's shared vertices with r, in
+            // the same order; rows are the global order.
+            let layouts = p.layouts(&all);
+            for (r, l) in layouts.iter().enumerate() {
+                for (k, &v) in all[r].vertices.iter().enumerate() {
+                    assert_eq!(l.rows[k], position[v]);
+                }
+                for nb in &l.neighbours {
+                    let back = layouts[nb.rank]
+                        .neighbours
+                        .iter()
+                        .find(|m| m.rank == r)
+                        .expect("neighbours both ways");
+                    let mine: Vec<usize> = nb.ghosts.iter().map(|&k| all[r].vertices[k]).collect();
+                    let theirs: Vec<usize> = back
+                        .shared
+                        .iter()
+                        .map(|&k| all[nb.rank].vertices[k])
+                        .collect();
+                    assert_eq!(mine, theirs, "{parts}: ranks {r} and {}", nb.rank);
+                }
+            }
         }
     }
 

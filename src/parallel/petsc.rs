@@ -1,4 +1,5 @@
-//! PETSc through a small hand-kept FFI: the only `unsafe` of the `mpi` feature lives here.
+//! PETSc through a small hand-kept FFI: with [`super::metis`] (one METIS call), the only
+//! `unsafe` of the `mpi` feature lives here.
 //!
 //! Against Debian's `libpetsc-real-dev` 3.18 (PetscInt = 32-bit `int`, PetscScalar = PetscReal
 //! = `double`, PetscErrorCode = `int`, every object an opaque pointer). The declarations copy
@@ -8,8 +9,8 @@
 //! **Safety.** Every wrapper owns its PETSc object and destroys it on drop; no pointer leaves
 //! this file. Every call's error code is checked ([`check`]). The objects are collective on the
 //! communicator they were made on, so every rank must make the same calls in the same order:
-//! the callers guarantee that by running the same replicated control flow on every rank (see
-//! [`super`]). PETSc is initialised once ([`Petsc::init`], after MPI) and finalised when the
+//! the callers guarantee that by running the same control flow on every rank, its decisions
+//! made on sums over the ranks (see [`super`]). PETSc is initialised once ([`Petsc::init`], after MPI) and finalised when the
 //! last [`Petsc`] handle is dropped; the wrappers keep a handle, so they are destroyed first.
 
 use std::ffi::{CString, c_char, c_int, c_void};
@@ -24,9 +25,7 @@ type PetscReal = f64;
 type Object = *mut c_void;
 
 const ADD_VALUES: c_int = 2;
-const INSERT_VALUES: c_int = 1;
 const MAT_FINAL_ASSEMBLY: c_int = 0;
-const SCATTER_FORWARD: c_int = 0;
 const KSP_NORM_UNPRECONDITIONED: c_int = 2;
 /// PETSC_DEFAULT: keep PETSc's value of a tolerance.
 const PETSC_DEFAULT: PetscReal = -2.0;
@@ -46,16 +45,6 @@ unsafe extern "C" {
     fn VecRestoreArray(v: Object, a: *mut *mut PetscScalar) -> PetscErrorCode;
     fn VecGetLocalSize(v: Object, n: *mut PetscInt) -> PetscErrorCode;
     fn VecDestroy(v: *mut Object) -> PetscErrorCode;
-    fn VecScatterCreateToAll(v: Object, ctx: *mut Object, out: *mut Object) -> PetscErrorCode;
-    fn VecScatterBegin(
-        ctx: Object,
-        x: Object,
-        y: Object,
-        mode: c_int,
-        dir: c_int,
-    ) -> PetscErrorCode;
-    fn VecScatterEnd(ctx: Object, x: Object, y: Object, mode: c_int, dir: c_int) -> PetscErrorCode;
-    fn VecScatterDestroy(ctx: *mut Object) -> PetscErrorCode;
 
     fn MatCreate(comm: MPI_Comm, a: *mut Object) -> PetscErrorCode;
     fn MatSetSizes(
@@ -252,68 +241,6 @@ impl Drop for Vector {
     fn drop(&mut self) {
         // SAFETY: owned object, destroyed once.
         unsafe { VecDestroy(&mut self.v) };
-    }
-}
-
-/// Every rank's copy of a whole distributed vector (VecScatterCreateToAll).
-pub struct ToAll {
-    scatter: Object,
-    all: Vector,
-}
-
-impl ToAll {
-    /// A scatter from vectors laid out like `like` to a full copy on every rank.
-    pub fn new(like: &Vector) -> Result<Self> {
-        let (mut scatter, mut all) = (std::ptr::null_mut(), std::ptr::null_mut());
-        // SAFETY: collective; both outputs written by PETSc and owned here.
-        unsafe {
-            check(
-                VecScatterCreateToAll(like.v, &mut scatter, &mut all),
-                "VecScatterCreateToAll",
-            )?;
-        }
-        Ok(ToAll {
-            scatter,
-            all: Vector {
-                v: all,
-                _petsc: like._petsc.clone(),
-            },
-        })
-    }
-
-    /// Gather `from` (collective) and hand the whole vector to `f`.
-    pub fn gather<T>(&mut self, from: &Vector, f: impl FnOnce(&mut [f64]) -> T) -> Result<T> {
-        // SAFETY: vectors of the layout the scatter was made for.
-        unsafe {
-            check(
-                VecScatterBegin(
-                    self.scatter,
-                    from.v,
-                    self.all.v,
-                    INSERT_VALUES,
-                    SCATTER_FORWARD,
-                ),
-                "VecScatterBegin",
-            )?;
-            check(
-                VecScatterEnd(
-                    self.scatter,
-                    from.v,
-                    self.all.v,
-                    INSERT_VALUES,
-                    SCATTER_FORWARD,
-                ),
-                "VecScatterEnd",
-            )?;
-        }
-        self.all.with_local(f)
-    }
-}
-
-impl Drop for ToAll {
-    fn drop(&mut self) {
-        // SAFETY: owned object, destroyed once (the vector drops itself).
-        unsafe { VecScatterDestroy(&mut self.scatter) };
     }
 }
 
@@ -564,7 +491,9 @@ pub struct Comm(pub mpi::topology::SimpleCommunicator);
 // SAFETY: an MPI communicator is a handle; each rank uses it from one thread at a time (the
 // Newton loop), and MPI is initialised with at least MPI_THREAD_SINGLE semantics respected.
 unsafe impl Send for Comm {}
+// SAFETY: as above: the reductions and halo exchanges that share it run on the Newton loop's
+// thread, one at a time.
+unsafe impl Sync for Comm {}
 
 // SAFETY: see `Petsc`: owned by the solver, used from one thread at a time.
 unsafe impl Send for Vector {}
-unsafe impl Send for ToAll {}

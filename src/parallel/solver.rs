@@ -1,13 +1,14 @@
 //! Newton's linear systems on PETSc: a [`LinearSolver`] whose matrix is the distributed BAIJ
 //! matrix the ranks' element blocks were added into ([`Shared`], the parts' [`ElementSink`]),
-//! solved by a KSP (CG + GAMG unless the options database says otherwise), the solution
-//! gathered whole to every rank.
+//! solved by a KSP (CG + GAMG unless the options database says otherwise) on this rank's owned
+//! vertices, the solution then copied to the ghosts ([`super::Ranks::share`]).
 
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+use super::Ranks;
 use super::elastic::ElementSink;
-use super::petsc::{Ksp, Matrix, Petsc, ToAll, Vector};
+use super::petsc::{Ksp, Matrix, Petsc, Vector};
 use super::setup::record;
 use crate::linear::cg::{CgError, CgInfo, CgParams};
 use crate::linear::sparse::BlockCsr;
@@ -18,18 +19,15 @@ use crate::math::Vec3;
 pub struct Shared {
     /// The distributed matrix.
     pub matrix: Matrix,
-    /// Each vertex's block row in the matrix.
-    position: Vec<usize>,
     /// The first PETSc error met while adding (reported by the next solve).
     error: Option<super::petsc::PetscError>,
 }
 
 impl Shared {
-    /// `matrix` with block row `position[v]` for vertex v.
-    pub fn new(matrix: Matrix, position: Vec<usize>) -> Self {
+    /// Elements are added into `matrix`.
+    pub fn new(matrix: Matrix) -> Self {
         Shared {
             matrix,
-            position,
             error: None,
         }
     }
@@ -42,8 +40,8 @@ impl ElementSink for Shared {
         }
     }
 
-    fn add_element(&mut self, vertices: [usize; 4], values: &[f64; 144]) {
-        let rows = vertices.map(|v| self.position[v] as i32);
+    fn add_element(&mut self, rows: [usize; 4], values: &[f64; 144]) {
+        let rows = rows.map(|r| r as i32);
         if let Err(e) = self.matrix.add_blocks(&rows, &rows, values) {
             self.error.get_or_insert(e);
         }
@@ -57,29 +55,28 @@ pub struct PetscSolver {
     ksp: Ksp,
     b: Vector,
     x: Vector,
-    to_all: ToAll,
-    /// This rank's vertices, in block-row order.
-    owned: Vec<usize>,
+    /// This rank's owned vertices (the first ones of its vectors; rows `offset..`).
+    owned: usize,
     /// The first block row of this rank.
     offset: usize,
-    /// Each vertex's block row.
-    position: Vec<usize>,
+    ranks: Arc<dyn Ranks>,
+    flat: Vec<f64>,
     /// The lumped diagonal (inertia) the system assembles beside the parts' blocks.
     diagonal: Option<(BlockCsr, u64)>,
     report: SolverReport,
 }
 
 impl PetscSolver {
-    /// A solver on `shared`'s matrix with `ksp` and vectors (b, x, scatter to all) laid out
-    /// like it; `owned` are this rank's vertices, the first at block row `offset`.
+    /// A solver on `shared`'s matrix with `ksp` and vectors (b, x) laid out like it; this
+    /// rank owns the first `owned` vertices of its vectors, at block rows from `offset`.
     pub fn new(
         petsc: Petsc,
         shared: Arc<Mutex<Shared>>,
         ksp: Ksp,
-        (b, x, to_all): (Vector, Vector, ToAll),
-        owned: Vec<usize>,
+        (b, x): (Vector, Vector),
+        owned: usize,
         offset: usize,
-        position: Vec<usize>,
+        ranks: Arc<dyn Ranks>,
     ) -> Self {
         PetscSolver {
             petsc,
@@ -87,10 +84,10 @@ impl PetscSolver {
             ksp,
             b,
             x,
-            to_all,
             owned,
             offset,
-            position,
+            ranks,
+            flat: Vec::new(),
             diagonal: None,
             report: SolverReport {
                 name: "petsc",
@@ -106,28 +103,35 @@ impl PetscSolver {
         std::process::abort();
     }
 
-    /// Write `v` (whole-mesh) into this rank's part of `b`.
+    /// Write the owned entries of `v` into `b`.
     fn set_b(&mut self, v: &[Vec3]) {
-        let owned = &self.owned;
+        let owned = self.owned;
         if let Err(e) = self.b.with_local(|b| {
-            for (k, &i) in owned.iter().enumerate() {
-                b[3 * k..3 * k + 3].copy_from_slice(v[i].as_slice());
+            for (k, v) in v[..owned].iter().enumerate() {
+                b[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
             }
         }) {
             self.fail("writing the right-hand side", e);
         }
     }
 
-    /// Gather x whole into `out` (whole-mesh order) on every rank.
+    /// x into `out`: the owned entries from PETSc, the ghosts from their owners.
     fn get_x(&mut self, out: &mut [Vec3]) {
-        let position = &self.position;
-        if let Err(e) = self.to_all.gather(&self.x, |all| {
-            for (o, &p) in out.iter_mut().zip(position) {
-                *o = Vec3::new(all[3 * p], all[3 * p + 1], all[3 * p + 2]);
-            }
-        }) {
-            self.fail("gathering the solution", e);
+        let mut flat = std::mem::take(&mut self.flat);
+        flat.clear();
+        flat.resize(3 * out.len(), 0.0);
+        let owned = self.owned;
+        if let Err(e) = self
+            .x
+            .with_local(|x| flat[..3 * owned].copy_from_slice(&x[..3 * owned]))
+        {
+            self.fail("reading the solution", e);
         }
+        self.ranks.share(&mut flat, 3);
+        for (o, f) in out.iter_mut().zip(flat.chunks_exact(3)) {
+            *o = Vec3::new(f[0], f[1], f[2]);
+        }
+        self.flat = flat;
     }
 }
 
@@ -147,18 +151,18 @@ impl LinearSolver for PetscSolver {
         if let Some(e) = shared.error.take() {
             self.fail("adding element matrices", e);
         }
-        for (k, &v) in self.owned.iter().enumerate() {
+        for (v, m) in free[..self.owned].iter().enumerate() {
             let d = diagonal.diagonal(v);
             let mut values = [0.0; 9];
             for i in 0..3 {
                 for j in 0..3 {
-                    values[3 * i + j] = free[v][i] * free[v][j] * d[(i, j)];
+                    values[3 * i + j] = m[i] * m[j] * d[(i, j)];
                 }
-                if free[v][i] == 0.0 {
+                if m[i] == 0.0 {
                     values[4 * i] = 1.0;
                 }
             }
-            let row = [(self.offset + k) as i32];
+            let row = [(self.offset + v) as i32];
             if let Err(e) = shared.matrix.add_blocks(&row, &row, &values) {
                 self.fail("adding the diagonal", e);
             }
@@ -202,13 +206,15 @@ impl LinearSolver for PetscSolver {
         self.get_x(x);
         // GAMG's coarse spaces couple the constrained DOFs back in: keep them still.
         crate::linear::cg::project(x, free);
-        // The serial CG's measure: ‖r‖/‖b‖ over the free DOFs (b is masked: the same norm).
-        let norm: f64 = b
+        // The serial CG's measure: ‖r‖/‖b‖ over the free DOFs (b is masked: the same norm; the
+        // ghosts' entries are zero).
+        let mut norm = [b
             .iter()
             .zip(free)
             .map(|(b, m)| b.component_mul(m).norm_squared())
-            .sum::<f64>()
-            .sqrt();
+            .sum::<f64>()];
+        self.ranks.sum(&mut norm);
+        let norm = norm[0].sqrt();
         let info = CgInfo {
             iterations: outcome.iterations,
             relative_residual: if norm > 0.0 {
