@@ -13,7 +13,9 @@
 //! }
 //! ```
 
+mod checkpoint;
 mod control;
+mod monitoring;
 
 use std::time::Instant;
 
@@ -214,56 +216,6 @@ impl Simulation {
     /// The probes and named constraints this simulation records.
     pub fn monitors(&self) -> &crate::monitor::Monitors {
         &self.monitors
-    }
-
-    /// Each probe's displacement in the current state, m (in [`Simulation::monitors`] order).
-    pub fn probe_displacements(&self) -> Vec<Vec3> {
-        self.monitors
-            .probes
-            .iter()
-            .map(|p| p.displacement(&self.body, &self.state.x))
-            .collect()
-    }
-
-    /// The reaction force on every vertex, N: what the constraints exert on the body's
-    /// constrained components (zero on free ones). After a frame: minus the total force of the
-    /// step's equation there at the converged state (see [`crate::monitor`]); before the first
-    /// (or when not recorded), the static value −(f_el + f_ext), which holds for constraints at
-    /// rest.
-    pub fn vertex_reactions(&self) -> Vec<Vec3> {
-        let n = self.body.vertex_count();
-        let recorded = self.newton.potential().constrained_forces();
-        if self.frame > 0 && recorded.len() == n {
-            return recorded.iter().map(|f| -f).collect();
-        }
-        let mut f = vec![Vec3::zeros(); n];
-        self.boundary
-            .external_forces(&self.clock_at(self.state.t), self.body.masses(), &mut f);
-        self.body.add_forces(&self.state.x, &mut f);
-        f.iter()
-            .zip(&self.free)
-            .map(|(f, m)| -f.component_mul(&(Vec3::repeat(1.0) - m)))
-            .collect()
-    }
-
-    /// The total reaction force of each named constraint, N (in [`Simulation::monitors`]
-    /// order): the sum of [`Simulation::vertex_reactions`] over its vertices and components.
-    pub fn reaction_forces(&self) -> Vec<Vec3> {
-        if self.monitors.reactions.is_empty() {
-            return Vec::new();
-        }
-        let reactions = self.vertex_reactions();
-        self.monitors
-            .reactions
-            .iter()
-            .map(|group| {
-                let c = &self.boundary.constraints[group.constraint];
-                let mask = Vec3::from(c.components.map(|on| if on { 1.0 } else { 0.0 }));
-                c.vertices.iter().fold(Vec3::zeros(), |sum, &v| {
-                    sum + reactions[v].component_mul(&mask)
-                })
-            })
-            .collect()
     }
 
     /// The bodies in the mesh, in input order (one, "body0", unless named).
@@ -534,85 +486,6 @@ impl Simulation {
         let mut all = Vec::new();
         self.run_with(recorder, |_, stats| all.push(stats.clone()))?;
         Ok(all)
-    }
-
-    /// The state after the last frame, for a checkpoint: everything the next frame reads that
-    /// the scene does not give (see [`crate::checkpoint`]).
-    pub fn snapshot(&self) -> crate::checkpoint::SimulationState {
-        use crate::linear::state::vectors_out;
-        crate::checkpoint::SimulationState {
-            frame: self.frame,
-            t: self.state.t,
-            x: vectors_out(&self.state.x),
-            v: vectors_out(&self.state.v),
-            free: vectors_out(&self.free),
-            ledger: (
-                self.ledger.elastic,
-                vectors_out(&self.ledger.loads),
-                vectors_out(&self.ledger.reactions),
-            ),
-            ramp_frames: self.ramp_frames(),
-            pattern_generation: self.newton.potential().pattern_generation(),
-            solver: self.newton.solver_state(),
-            contact: self.contact().map(|c| c.saved_state()),
-        }
-    }
-
-    /// Continue from a [`Simulation::snapshot`] of a simulation made from the same scene; the
-    /// frames to run (`params.frames`) may have grown since, the ramps keep the snapshot's.
-    pub fn restore(&mut self, saved: &crate::checkpoint::SimulationState) -> Result<()> {
-        use crate::linear::state::vectors_in;
-        let n = self.body.vertex_count();
-        let fits = |v: &Vec<[f64; 3]>| v.len() == n;
-        if !(fits(&saved.x)
-            && fits(&saved.v)
-            && fits(&saved.free)
-            && fits(&saved.ledger.1)
-            && fits(&saved.ledger.2))
-        {
-            return Err(Error::parameter(
-                "resume",
-                format!("the checkpoint's state does not fit the scene's mesh of {n} vertices"),
-            ));
-        }
-        if saved.contact.is_some() != self.contact().is_some() {
-            return Err(Error::parameter(
-                "resume",
-                "the checkpoint and the scene disagree on contact",
-            ));
-        }
-        self.newton
-            .restore_solver_state(&saved.solver, &self.body.mesh.positions)
-            .map_err(|e| Error::parameter("resume", e))?;
-        self.newton
-            .potential_mut()
-            .restore_pattern_generation(saved.pattern_generation);
-        if let (Some(state), Some(contact)) =
-            (&saved.contact, &mut self.newton.potential_mut().contact)
-        {
-            contact.restore_state(state);
-        }
-        self.state = State {
-            x: vectors_in(&saved.x),
-            v: vectors_in(&saved.v),
-            t: saved.t,
-        };
-        self.free = vectors_in(&saved.free);
-        // The elastic forces at the saved state are a function of it: recomputed, not stored.
-        let mut forces = vec![Vec3::zeros(); self.state.x.len()];
-        self.body.add_forces(&self.state.x, &mut forces);
-        self.ledger = Ledger {
-            elastic: saved.ledger.0,
-            loads: vectors_in(&saved.ledger.1),
-            reactions: vectors_in(&saved.ledger.2),
-            forces,
-        };
-        self.saved_ledger.clone_from(&self.ledger);
-        self.ledger_x.clone_from(&self.state.x);
-        self.saved.clone_from(&self.state);
-        self.frame = saved.frame;
-        self.ramp_frames = Some(saved.ramp_frames);
-        Ok(())
     }
 
     /// Run `substeps` steps of the frame; returns the stats and whether the state is finite.

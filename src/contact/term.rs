@@ -43,7 +43,9 @@ mod bodies;
 mod candidate_cache;
 mod friction;
 mod held;
+mod intersection;
 mod motion;
+mod stiffness;
 
 use friction::FrictionLag;
 use motion::time_of_impact;
@@ -276,125 +278,6 @@ impl ContactTerm {
             );
             self.previous_min_distance = d2;
         }
-    }
-
-    /// Raise κ_min (and κ, κ_max = 100 κ_min) to the stiffness that matches the bodies' own:
-    /// `youngs_modulus` (Pa, the softest body's) times the mean edge length `edge` (m) is the
-    /// stiffness of a surface vertex, and the barrier is made as stiff across a gap of d̂/2
-    /// ([`stiffness_matched_barrier_stiffness`]). Never lowers κ_min. Call before the first step.
-    pub fn match_material_stiffness(&mut self, youngs_modulus: f64, edge: f64) {
-        let matched = stiffness_matched_barrier_stiffness(self.dhat, youngs_modulus * edge);
-        if matched.is_finite() && matched > self.kappa_min {
-            self.kappa_min = matched;
-            self.kappa_max = 100.0 * matched;
-            self.kappa = self.kappa.max(matched);
-        }
-    }
-
-    /// IPC's initial stiffness, at the first evaluation of a step ([`initial_barrier_stiffness`]):
-    /// κ raised to the value whose barrier forces best balance the other forces of the step
-    /// (least squares over the free components), within [κ_min, 100 κ_min]; never lowered.
-    /// `total` is the evaluation's force (every term, masked to the free components, N).
-    /// Returns whether κ changed (the caller evaluates again).
-    ///
-    /// Without it a body that starts its step inside d̂ under a load (the beam resting on the
-    /// ground) meets a barrier too soft to carry it where it is: Newton asks its bottom to
-    /// pass through the ground, CCD cuts the whole step to a few per cent, and the frame takes
-    /// many iterations to walk the gap down to where the weak barrier holds (16 Newton
-    /// iterations against 7 with the balanced κ in `tetsim bench --contact`'s first frame).
-    pub fn balance_stiffness(&mut self, total: &[Vec3], free: &[Vec3]) -> bool {
-        if self.balanced {
-            return false;
-        }
-        self.balanced = true;
-        if self.barrier_pairs == 0 {
-            return false;
-        }
-        // The barrier's own forces (friction's belong with the rest), unscaled: −∇B.
-        let mut barrier = vec![Vec3::zeros(); total.len()];
-        for p in &self.pairs[..self.barrier_pairs] {
-            for k in 0..p.count {
-                barrier[p.vertices[k]] -= p.gradient.fixed_rows::<3>(3 * k) / self.kappa;
-            }
-        }
-        let grad_barrier: Vec<Vec3> = barrier
-            .iter()
-            .zip(free)
-            .map(|(b, m)| -b.component_mul(m))
-            .collect();
-        // ∇E = −(total − contact), the contact forces being κ·(−∇B) plus friction's.
-        let grad_energy: Vec<Vec3> = total
-            .iter()
-            .zip(&barrier)
-            .zip(free)
-            .map(|((t, b), m)| -(t - self.kappa * b).component_mul(m))
-            .collect();
-        let (kappa, _) = initial_barrier_stiffness(self.kappa_min, &grad_energy, &grad_barrier);
-        if kappa > self.kappa {
-            log::debug!(
-                "contact: barrier stiffness {:.3e} → {kappa:.3e} (balanced against the step's other forces)",
-                self.kappa
-            );
-            self.kappa = kappa;
-            return true;
-        }
-        false
-    }
-
-    /// Why the bodies at x pass through an obstacle (naming the obstacle and a body vertex),
-    /// each other or themselves (naming the bodies and an element of each), or None: a vertex on
-    /// the wrong side of a plane or inside a sphere or box, a surface edge crossing an obstacle
-    /// triangle, or a surface edge crossing a face of the mesh's surface it shares no vertex with
-    /// (inside one body only with `self_contact`).
-    pub fn intersection(&self, x: &[Vec3]) -> Option<String> {
-        for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
-            let inside = |v: usize| -> bool {
-                let p = x[v];
-                match &spec.obstacle.shape {
-                    Shape::Plane { .. } => placed
-                        .plane
-                        .is_some_and(|(o, n)| super::distance::point_plane_gap(&p, &o, &n) <= 0.0),
-                    Shape::Sphere { .. } => placed.sphere.is_some_and(|(c, r)| (p - c).norm() <= r),
-                    Shape::Box { min, max } => (0..3).all(|k| p[k] > min[k] && p[k] < max[k]),
-                    Shape::Mesh(_) => false,
-                }
-            };
-            if let Some(&v) = self.surface.vertices.iter().find(|&&v| inside(v)) {
-                return Some(format!(
-                    "the initial state passes through {}: vertex {v} at ({:.4}, {:.4}, {:.4}) is inside it",
-                    spec.name, x[v].x, x[v].y, x[v].z
-                ));
-            }
-            if matches!(spec.obstacle.shape, Shape::Box { .. } | Shape::Mesh(_)) {
-                let obstacle_surface = spec.obstacle.contact_surface();
-                let y = &placed.positions;
-                let body = self.surface.primitives(x, x);
-                let other = obstacle_surface.primitives(y, y);
-                let c = cross_candidates(&body, &other, 0.0);
-                for &[ea, eb] in &c.edge_edge {
-                    let [a0, a1] = self.surface.edges[ea];
-                    let [b0, b1] = obstacle_surface.edges[eb];
-                    let d = super::distance::edge_edge_distance(&x[a0], &x[a1], &y[b0], &y[b1]);
-                    if d <= 0.0 {
-                        return Some(format!(
-                            "the initial state passes through {}: the surface edge of vertices {a0} and {a1} touches it",
-                            spec.name
-                        ));
-                    }
-                }
-                for &[v, f] in &c.point_triangle {
-                    let v = self.surface.vertices[v];
-                    let [a, b, cc] = obstacle_surface.faces[f].map(|i| y[i]);
-                    if super::distance::point_triangle_distance(&x[v], &a, &b, &cc) <= 0.0 {
-                        return Some(format!(
-                            "the initial state passes through {}: vertex {v} lies on it",
-                            spec.name
-                        ));
-                    }
-                }
-            }
-        }
-        self.body_intersection(x)
     }
 
     /// The diagonal of the body's rest bounding box, m (the length IPC's tolerances scale with).

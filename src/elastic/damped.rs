@@ -1,0 +1,151 @@
+//! Forces and tangents of a step with Rayleigh stiffness damping: the damping force −γ K_d(x) v from the same SVD as the stress, and Newton's tangents of K_n + w·K_d, shifted along v.
+
+use super::*;
+
+impl ElasticBody {
+    /// [`ElasticBody::linearize_into`] with Rayleigh stiffness damping: also write
+    /// `kv = K_d(x)·v` (overwrite), K_d the damping stiffness of `damping` at x. The tangents
+    /// `lin` keeps for Newton are those of `K_n + w·K_d` (K_n by `lin`'s definiteness strategy,
+    /// w = `damping.weight`) at `x + damping.shift·v`, so the stiffness products and matrices
+    /// made from `lin` are Newton's whole (elastic + damping) tangent. One SVD per tet, two with
+    /// a shift: [`ElasticBody::damped_forces_into`], then [`ElasticBody::damped_tangents_into`].
+    pub fn linearize_damped_into(
+        &self,
+        x: &[Vec3],
+        damping: &Damping<'_>,
+        lin: &mut Linearization,
+        forces: &mut [Vec3],
+        kv: &mut [Vec3],
+    ) -> f64 {
+        let energy = self.damped_forces_into(x, damping, lin, forces, kv);
+        self.damped_tangents_into(x, damping, lin);
+        energy
+    }
+
+    /// The forces half of [`ElasticBody::linearize_damped_into`]: energy, `forces` and `kv`
+    /// (overwritten). Without a shift Newton's tangents come from the same SVD and are filled
+    /// too; with one they are left for [`ElasticBody::damped_tangents_into`] (an iterate that
+    /// turns out converged, or a rejected line-search trial, never needs them).
+    pub fn damped_forces_into(
+        &self,
+        x: &[Vec3],
+        damping: &Damping<'_>,
+        lin: &mut Linearization,
+        forces: &mut [Vec3],
+        kv: &mut [Vec3],
+    ) -> f64 {
+        assert_eq!(x.len(), self.vertex_count());
+        assert_eq!(damping.velocities.len(), self.vertex_count());
+        assert_eq!(kv.len(), self.vertex_count());
+        assert_eq!(lin.tangents.len(), self.tet_count());
+        if lin.damping.len() != self.tet_count() {
+            lin.damping = vec![[Vec3::zeros(); 3]; self.tet_count()];
+        }
+        let how = damping.tangent(lin.definiteness);
+        let shifted = damping.shift != 0.0;
+        // One tet: its force and K_d·v slots; returns W·Ψ and, without a shift, Newton's
+        // tangent and `adaptive`'s exact pieces.
+        let kernel = |t: usize, slot: &mut TetSlot, kv: &mut TetSlot| {
+            let (bm, w) = (&self.bm[t], self.volume[t]);
+            let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * bm;
+            let f = self.deformation_gradient(x, t);
+            let (psi, stress, dp, tangent) = if shifted {
+                let (psi, stress, dp) = self.model_of(t).damping_stress(&f, &df_v, how.damping);
+                (psi, stress, dp, None)
+            } else {
+                let e = self.model_of(t).evaluate_damped(&f, &df_v, &how);
+                (e.psi, e.stress, e.damping, Some((e.tangent, e.exact)))
+            };
+            *slot = slot_of(tet_forces(&stress, bm, w));
+            // K_d·v = −(the force differential along v), as in `apply_stiffness`.
+            *kv = slot_of(tet_forces(&(-dp), bm, w));
+            (w * psi, tangent)
+        };
+        let chunks = lin
+            .tangents
+            .par_chunks_mut(CHUNK)
+            .zip(lin.buffer.par_chunks_mut(CHUNK))
+            .zip(lin.damping.par_chunks_mut(CHUNK))
+            .zip(lin.chunk_energy.par_iter_mut())
+            .enumerate();
+        if lin.alternate.is_empty() {
+            chunks.for_each(|(c, (((tangents, buffer), kv), energy))| {
+                let mut sum = 0.0;
+                for (k, ((tangent, slot), kv)) in
+                    tangents.iter_mut().zip(buffer).zip(kv).enumerate()
+                {
+                    let (psi, tan) = kernel(c * CHUNK + k, slot, kv);
+                    sum += psi;
+                    if let Some((tan, _)) = tan {
+                        *tangent = tan;
+                    }
+                }
+                *energy = sum;
+            });
+        } else {
+            chunks.zip(lin.alternate.par_chunks_mut(CHUNK)).for_each(
+                |((c, (((tangents, buffer), kv), energy)), alternate)| {
+                    let mut sum = 0.0;
+                    for (k, (((tangent, slot), kv), alternate)) in tangents
+                        .iter_mut()
+                        .zip(buffer)
+                        .zip(kv)
+                        .zip(alternate)
+                        .enumerate()
+                    {
+                        let (psi, tan) = kernel(c * CHUNK + k, slot, kv);
+                        sum += psi;
+                        if let Some((tan, exact)) = tan {
+                            *tangent = tan;
+                            *alternate = exact;
+                        }
+                    }
+                    *energy = sum;
+                },
+            );
+        }
+        self.incidence.gather(&lin.buffer, forces, false);
+        self.incidence.gather(&lin.damping, kv, false);
+        lin.tangents_pending = shifted;
+        if !shifted {
+            lin.exact_active = false;
+            lin.count_tets();
+        }
+        lin.chunk_energy.iter().sum()
+    }
+
+    /// The tangents half of [`ElasticBody::linearize_damped_into`]: Newton's tangents at
+    /// `x + damping.shift·v`, if [`ElasticBody::damped_forces_into`] left them (`x` and
+    /// `damping` must be the same as there). Nothing to do otherwise.
+    pub fn damped_tangents_into(&self, x: &[Vec3], damping: &Damping<'_>, lin: &mut Linearization) {
+        if !lin.tangents_pending {
+            return;
+        }
+        assert_eq!(x.len(), self.vertex_count());
+        assert_eq!(damping.velocities.len(), self.vertex_count());
+        let how = damping.tangent(lin.definiteness);
+        let tangent_of = |t: usize| {
+            let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * self.bm[t];
+            let f = self.deformation_gradient(x, t);
+            let g = crate::material::shifted_deformation(&f, &df_v, damping.shift);
+            self.model_of(t).damped_tangent(&g, &how)
+        };
+        if lin.alternate.is_empty() {
+            lin.tangents
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(CHUNK)
+                .for_each(|(t, tangent)| *tangent = tangent_of(t).0);
+        } else {
+            lin.tangents
+                .par_iter_mut()
+                .zip(lin.alternate.par_iter_mut())
+                .enumerate()
+                .with_min_len(CHUNK)
+                .for_each(|(t, (tangent, alternate))| (*tangent, *alternate) = tangent_of(t));
+        }
+        lin.tangents_pending = false;
+        lin.exact_active = false;
+        lin.count_tets();
+    }
+}
