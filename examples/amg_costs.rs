@@ -37,18 +37,7 @@ fn main() {
     let mesh = box_mesh(Vec3::zeros(), Vec3::new(4.0, 1.0, 1.0), [4 * n, n, n]);
     let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e6, 0.3));
     let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
-    let free: Vec<Vec3> = body
-        .mesh
-        .positions
-        .iter()
-        .map(|p| {
-            if p.x == 0.0 {
-                Vec3::zeros()
-            } else {
-                Vec3::repeat(1.0)
-            }
-        })
-        .collect();
+    let free: Vec<Vec3> = tetsim::boundary::mask_holding(&body.mesh.positions, |p| p.x == 0.0);
     // A bent state like the cantilever's sag.
     let x: Vec<Vec3> = body
         .mesh

@@ -300,6 +300,21 @@ impl Clock {
     }
 }
 
+/// The free mask (1 free, 0 held, per vertex and component) that holds every vertex at whose
+/// position `held` is true: a clamp given by a predicate, as tests and examples make one.
+pub fn mask_holding(positions: &[Vec3], held: impl Fn(&Vec3) -> bool) -> Vec<Vec3> {
+    positions
+        .iter()
+        .map(|p| {
+            if held(p) {
+                Vec3::zeros()
+            } else {
+                Vec3::repeat(1.0)
+            }
+        })
+        .collect()
+}
+
 /// Everything at the boundary of the problem: Dirichlet constraints, loads and gravity.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Boundary {

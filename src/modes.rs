@@ -572,18 +572,7 @@ mod tests {
             3
         );
         // Clamped face: none.
-        let free: Vec<Vec3> = body
-            .mesh
-            .positions
-            .iter()
-            .map(|p| {
-                if p.x == 0.0 {
-                    Vec3::zeros()
-                } else {
-                    Vec3::repeat(1.0)
-                }
-            })
-            .collect();
+        let free: Vec<Vec3> = crate::boundary::mask_holding(&body.mesh.positions, |p| p.x == 0.0);
         assert_eq!(
             VibrationProblem::new(&body, &free).unwrap().rigid_count(),
             0

@@ -13,18 +13,7 @@ const TWO_PI: f64 = 2.0 * std::f64::consts::PI;
 fn clamped(mesh: TetMesh, e: f64, nu: f64, rho: f64) -> (ElasticBody, Vec<Vec3>) {
     let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(e, nu));
     let body = ElasticBody::new(mesh, model, rho).unwrap();
-    let free = body
-        .mesh
-        .positions
-        .iter()
-        .map(|p| {
-            if p.x == 0.0 {
-                Vec3::zeros()
-            } else {
-                Vec3::repeat(1.0)
-            }
-        })
-        .collect();
+    let free = tetsim::boundary::mask_holding(&body.mesh.positions, |p| p.x == 0.0);
     (body, free)
 }
 

@@ -32,16 +32,7 @@ fn beam(n: usize, bend: f64) -> System {
     let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e6, 0.3));
     let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
     let positions = body.mesh.positions.clone();
-    let free: Vec<Vec3> = positions
-        .iter()
-        .map(|p| {
-            if p.x == 0.0 {
-                Vec3::zeros()
-            } else {
-                Vec3::repeat(1.0)
-            }
-        })
-        .collect();
+    let free: Vec<Vec3> = crate::boundary::mask_holding(&positions, |p| p.x == 0.0);
     let x: Vec<Vec3> = positions
         .iter()
         .map(|p| p - Vec3::new(0.0, bend * (p.x / 4.0).powi(2), 0.0))
