@@ -22,6 +22,11 @@ use crate::io::{Field, atomic_write, write_pvd, write_vtu};
 use crate::math::Vec3;
 use crate::sim::Simulation;
 
+mod timings;
+
+use timings::TimingsCsv;
+pub use timings::{CONTACT_TIMING_COLUMNS, TIMINGS_HEADER};
+
 /// The steps.csv header. The first eleven columns are the SPEC §10 contract; columns after them
 /// are extensions (new ones are only ever appended).
 pub const STEPS_HEADER: &str = "frame,time,newton_iterations,cg_iterations,residual,converged,elastic_energy,kinetic_energy,min_J,inverted_elements,wall_seconds,relative_residual,substeps,line_search_cuts,cg_breakdowns,cg_capped,clamped_tets,gravitational_energy,load_work,boundary_work,damping_dissipation,numerical_dissipation,energy_tolerance";
@@ -30,11 +35,6 @@ pub const STEPS_HEADER: &str = "frame,time,newton_iterations,cg_iterations,resid
 /// pairs at the end of the frame, the smallest gap then (m; empty when None), the contact
 /// energy and the friction dissipated over the frame (J).
 pub const CONTACT_COLUMNS: &str = "contacts,min_distance,contact_energy,friction_dissipation";
-
-/// The header of timings.csv: wall-clock seconds per frame, split by phase (never deterministic,
-/// never hashed in the manifest).
-pub const TIMINGS_HEADER: &str =
-    "frame,wall_seconds,evaluate_seconds,preconditioner_seconds,cg_seconds";
 
 /// One frame's output files with their SHA-256, for the manifest.
 #[derive(Clone, Debug, PartialEq)]
@@ -58,7 +58,7 @@ pub struct Recorder {
     surface_in_file_order: bool,
     pvd: Vec<(f64, String)>,
     csv: String,
-    timings: String,
+    timings: TimingsCsv,
     /// probes.csv and reactions.csv (SPEC §13): empty when the run has none.
     probes_csv: String,
     reactions_csv: String,
@@ -97,7 +97,7 @@ impl Recorder {
             pvd: Vec::new(),
             // The header waits for the first frame, which says whether contact is on.
             csv: String::new(),
-            timings: format!("{TIMINGS_HEADER}\n"),
+            timings: TimingsCsv::new(false),
             probes_csv: String::new(),
             reactions_csv: String::new(),
             frames: Vec::new(),
@@ -169,13 +169,7 @@ impl Recorder {
         // timings.csv (wall-clock times, never in the checkpoint): its rows up to the frame.
         let last = sim.frame();
         let timings = std::fs::read_to_string(dir.join("timings.csv")).unwrap_or_default();
-        for row in timings.lines().skip(1) {
-            let frame = row.split(',').next().and_then(|f| f.parse::<usize>().ok());
-            if frame.is_some_and(|f| f <= last) {
-                r.timings.push_str(row);
-                r.timings.push('\n');
-            }
-        }
+        r.timings.keep_rows(&timings, last);
         // probes.csv and reactions.csv: their rows up to the frame, like timings.csv.
         let monitors = [
             ("probes.csv", r.probes_csv.clone()),
@@ -226,7 +220,7 @@ impl Recorder {
         names.into_iter().for_each(|path| r.note(path));
         let csv = &r.csv;
         atomic_write(&steps, |w| w.write_all(csv.as_bytes()))?;
-        let timings = &r.timings;
+        let timings = r.timings.text();
         atomic_write(&dir.join("timings.csv"), |w| {
             w.write_all(timings.as_bytes())
         })?;
@@ -392,17 +386,14 @@ impl Recorder {
         let csv = &self.csv;
         atomic_write(&path, |w| w.write_all(csv.as_bytes()))?;
         self.note(path);
-        let t = &row.timings;
-        let _ = writeln!(
-            self.timings,
-            "{frame},{},{},{},{}",
-            num(row.wall_seconds),
-            num(t.evaluate),
-            num(t.preconditioner),
-            num(t.cg)
+        self.timings.push(
+            frame,
+            row.wall_seconds,
+            &row.timings,
+            sim.contact().map(|c| c.costs()),
         );
         let path = self.dir.join("timings.csv");
-        let timings = &self.timings;
+        let timings = self.timings.text();
         atomic_write(&path, |w| w.write_all(timings.as_bytes()))?;
         self.note(path);
         self.write_monitors(sim)
@@ -514,6 +505,7 @@ impl Recorder {
         if !monitors.reactions.is_empty() {
             self.reactions_csv = format!("{}\n", monitors.reactions_header());
         }
+        self.timings = TimingsCsv::new(sim.contact().is_some());
         if let Some(setup) = sim.contact_setup() {
             self.csv = format!("{STEPS_HEADER},{CONTACT_COLUMNS}\n");
             let scene = scene_box(sim.initial_positions(), setup);
