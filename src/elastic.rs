@@ -19,7 +19,7 @@ use crate::linear::sparse::{BlockCsr, BlockPattern};
 use crate::material::{
     DampedTangent, DampingStiffness, Definiteness, DiagonalPieces, Model, Tangent,
 };
-use crate::math::{Mat3, Vec3};
+use crate::math::{LANES, Mat3, Svd, Vec3, svd_rv_lanes};
 use crate::mesh::TetMesh;
 
 mod assembly;
@@ -431,23 +431,24 @@ impl ElasticBody {
             Definiteness::Adaptive => Definiteness::Exact,
             d => d,
         };
+        let svd = self.uses_svd();
         lin.tangents
             .par_chunks_mut(CHUNK)
             .zip(lin.buffer.par_chunks_mut(CHUNK))
             .zip(lin.chunk_energy.par_iter_mut())
             .enumerate()
             .for_each(|(c, ((tangents, buffer), energy))| {
+                let first = c * CHUNK;
                 let mut sum = 0.0;
-                for (k, (tangent, slot)) in tangents.iter_mut().zip(buffer.iter_mut()).enumerate() {
-                    let t = c * CHUNK + k;
+                let f_of = |k: usize| self.deformation_gradient(x, first + k);
+                self.with_svds(svd, tangents.len(), f_of, |k, f, s| {
+                    let t = first + k;
                     // A per-tet match on the model: a predictable branch next to an SVD.
-                    let (psi, stress, tan) = self
-                        .model_of(t)
-                        .evaluate(&self.deformation_gradient(x, t), definiteness);
+                    let (psi, stress, tan) = self.model_of(t).evaluate_svd(f, s, definiteness);
                     sum += self.volume[t] * psi;
-                    *slot = slot_of(tet_forces(&stress, &self.bm[t], self.volume[t]));
-                    *tangent = tan;
-                }
+                    buffer[k] = slot_of(tet_forces(&stress, &self.bm[t], self.volume[t]));
+                    tangents[k] = tan;
+                });
                 *energy = sum;
             });
         self.incidence.gather(&lin.buffer, forces, false);
@@ -462,6 +463,49 @@ impl ElasticBody {
         lin.tangents_pending = false;
         lin.count_tets();
         lin.chunk_energy.iter().sum()
+    }
+
+    /// Whether any of the body's materials needs the SVD of F (all but linear elasticity).
+    fn uses_svd(&self) -> bool {
+        self.model.uses_svd() || self.regions.iter().any(|(m, _)| m.uses_svd())
+    }
+
+    /// Call `each(k, &F, &svd_rv(F))` for k = 0, 1, … `count − 1` in order, with F = `f_of(k)`:
+    /// the SVDs are made [`LANES`] at a time by [`svd_rv_lanes`] (same bits as one at a time,
+    /// in a quarter of the latency; a short last group is padded with identities). With
+    /// `svd = false` (no material needs one) `each` gets a placeholder.
+    #[inline]
+    fn with_svds(
+        &self,
+        svd: bool,
+        count: usize,
+        f_of: impl Fn(usize) -> Mat3,
+        mut each: impl FnMut(usize, &Mat3, &Svd),
+    ) {
+        let mut start = 0;
+        while start < count {
+            let n = (count - start).min(LANES);
+            let f: [Mat3; LANES] = std::array::from_fn(|l| {
+                if l < n {
+                    f_of(start + l)
+                } else {
+                    Mat3::identity()
+                }
+            });
+            let svds = if svd {
+                svd_rv_lanes(&f)
+            } else {
+                [Svd {
+                    u: Mat3::identity(),
+                    sigma: Vec3::repeat(1.0),
+                    v: Mat3::identity(),
+                }; LANES]
+            };
+            for l in 0..n {
+                each(start + l, &f[l], &svds[l]);
+            }
+            start += n;
+        }
     }
 
     /// Bytes one matrix-free stiffness product moves (a traffic model for roofline figures): per

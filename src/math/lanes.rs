@@ -1,0 +1,237 @@
+//! The SVD of [`LANES`] matrices at once, bit for bit the scalar [`svd_rv`](super::svd_rv).
+//!
+//! Why: a Jacobi rotation is a dependent chain of div, sqrt, div, sqrt (≈ 60–80 cycles of
+//! latency for a few dozen flops), and one 3×3 eigen-solve is ~8 such rotations in a row, so the
+//! scalar solver waits on latency, not arithmetic. Here four matrices go through their sweeps in
+//! lock-step: the same operations, one array element per matrix ("lane"), which the compiler
+//! turns into packed SSE2 instructions and the core overlaps. Each lane does exactly the scalar
+//! solver's IEEE operations in the same order: a lane that has converged is frozen (its sweep
+//! test is the scalar one), and a rotation the scalar solver skips (a zero off-diagonal entry)
+//! is computed but blended away, so every lane's result has the scalar result's bits. The
+//! group runs as many sweeps as its slowest lane (2.65 sweeps per solve on average on the bench
+//! beam, 3–5 at most).
+//!
+//! Plain arrays rather than a SIMD crate (`wide`, `pulp`): the default x86-64 target has SSE2
+//! (two f64 per register), which LLVM uses for these loops without help, and the win is mostly
+//! the four independent chains in flight; see `cargo run --release --example svd_batch` for the
+//! measured ns per SVD (docs/performance.md).
+
+use super::{
+    MAX_SWEEPS, Mat3, PLANES, Svd, Vec3, align_null_pair, jacobi_rotation, jacobi_start,
+    sort_descending, svd_from_v,
+};
+
+/// How many matrices [`svd_rv_lanes`] decomposes together.
+pub const LANES: usize = 4;
+
+type Lanes = [f64; LANES];
+
+/// [`sym_eigen3`](super::sym_eigen3) of [`LANES`] symmetric matrices, with the same bits.
+pub fn sym_eigen3_lanes(a: &[Mat3; LANES]) -> [(Vec3, Mat3); LANES] {
+    let mut d = [[0.0; LANES]; 3];
+    let mut off = [[0.0; LANES]; 3];
+    let mut tolerance: Lanes = [0.0; LANES];
+    let mut done = [false; LANES];
+    for l in 0..LANES {
+        let (dl, ol, tol) = jacobi_start(&a[l]);
+        for i in 0..3 {
+            d[i][l] = dl[i];
+            off[i][l] = ol[i];
+        }
+        match tol {
+            Some(tol) => tolerance[l] = tol,
+            None => done[l] = true,
+        }
+    }
+    // q[row][col][lane], the identity.
+    let mut q = [[[0.0; LANES]; 3]; 3];
+    for (i, row) in q.iter_mut().enumerate() {
+        row[i] = [1.0; LANES];
+    }
+    for _ in 0..MAX_SWEEPS {
+        for l in 0..LANES {
+            done[l] |= off[0][l].abs() + off[1][l].abs() + off[2][l].abs() <= tolerance[l];
+        }
+        if done == [true; LANES] {
+            break;
+        }
+        for (p, r, pr, pk, rk) in PLANES {
+            let (mut t, mut c, mut s) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            let mut rotate = [false; LANES];
+            for l in 0..LANES {
+                let apr = off[pr][l];
+                (t[l], c[l], s[l]) = jacobi_rotation(d[p][l], d[r][l], apr);
+                rotate[l] = !done[l] && apr != 0.0;
+            }
+            let pick = |go: bool, new: f64, old: f64| if go { new } else { old };
+            for l in 0..LANES {
+                let (go, apr) = (rotate[l], off[pr][l]);
+                d[p][l] = pick(go, d[p][l] - t[l] * apr, d[p][l]);
+                d[r][l] = pick(go, d[r][l] + t[l] * apr, d[r][l]);
+                off[pr][l] = pick(go, 0.0, apr);
+                let (apk, ark) = (off[pk][l], off[rk][l]);
+                off[pk][l] = pick(go, c[l] * apk - s[l] * ark, apk);
+                off[rk][l] = pick(go, s[l] * apk + c[l] * ark, ark);
+                for row in q.iter_mut() {
+                    let (qp, qr) = (row[p][l], row[r][l]);
+                    row[p][l] = pick(go, c[l] * qp - s[l] * qr, qp);
+                    row[r][l] = pick(go, s[l] * qp + c[l] * qr, qr);
+                }
+            }
+        }
+    }
+    std::array::from_fn(|l| {
+        let lambda = Vec3::new(d[0][l], d[1][l], d[2][l]);
+        sort_descending(lambda, Mat3::from_fn(|i, j| q[i][j][l]))
+    })
+}
+
+/// [`svd_rv`](super::svd_rv) of [`LANES`] matrices, with the same bits: the eigen-solves of
+/// FᵀF in lock-step, then the Givens QRs of F·V in lock-step.
+pub fn svd_rv_lanes(f: &[Mat3; LANES]) -> [Svd; LANES] {
+    let gram: [Mat3; LANES] = std::array::from_fn(|l| f[l].transpose() * f[l]);
+    let eigen = sym_eigen3_lanes(&gram);
+    qr_lanes(f, std::array::from_fn(|l| eigen[l].1))
+}
+
+/// [`svd_from_v`](super::svd_from_v) in lanes: each Givens rotation (a sqrt and two divisions)
+/// of the four QRs together, a rotation the scalar code skips (h = 0) blended away.
+fn qr_lanes(f: &[Mat3; LANES], v: [Mat3; LANES]) -> [Svd; LANES] {
+    let fv: [Mat3; LANES] = std::array::from_fn(|l| f[l] * v[l]);
+    // b[row][col][lane] = F·V, ut[row][col][lane] accumulates Qᵀ = G₃G₂G₁ from the identity.
+    let mut b = [[[0.0; LANES]; 3]; 3];
+    let mut ut = [[[0.0; LANES]; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            b[i][j] = std::array::from_fn(|l| fv[l][(i, j)]);
+        }
+        ut[i][i] = [1.0; LANES];
+    }
+    for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {
+        let (mut c, mut s, mut go) = ([0.0; LANES], [0.0; LANES], [false; LANES]);
+        for l in 0..LANES {
+            let (x, y) = (b[p][col][l], b[r][col][l]);
+            let h = (x * x + y * y).sqrt();
+            go[l] = h != 0.0;
+            (c[l], s[l]) = (x / h, y / h);
+        }
+        let pick = |go: bool, new: f64, old: f64| if go { new } else { old };
+        for m in [&mut b, &mut ut] {
+            for k in 0..3 {
+                for l in 0..LANES {
+                    let (mp, mr) = (m[p][k][l], m[r][k][l]);
+                    m[p][k][l] = pick(go[l], c[l] * mp + s[l] * mr, mp);
+                    m[r][k][l] = pick(go[l], -s[l] * mp + c[l] * mr, mr);
+                }
+            }
+        }
+        for l in 0..LANES {
+            b[r][col][l] = pick(go[l], 0.0, b[r][col][l]);
+        }
+    }
+    std::array::from_fn(|l| {
+        let sigma = Vec3::new(b[0][0][l], b[1][1][l], b[2][2][l]);
+        let mut u = Mat3::from_fn(|i, j| ut[j][i][l]);
+        align_null_pair(&mut u, &v[l], &sigma);
+        Svd { u, sigma, v: v[l] }
+    })
+}
+
+/// [`svd_rv`](super::svd_rv) of [`LANES`] matrices with only the eigen-solves in lock-step
+/// (each QR on its own): kept for the micro benchmark's comparison.
+pub fn svd_rv_lanes_scalar_qr(f: &[Mat3; LANES]) -> [Svd; LANES] {
+    let gram: [Mat3; LANES] = std::array::from_fn(|l| f[l].transpose() * f[l]);
+    let eigen = sym_eigen3_lanes(&gram);
+    std::array::from_fn(|l| svd_from_v(&f[l], eigen[l].1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{svd_rv, sym_eigen3};
+    use super::*;
+
+    /// Random F of every kind the solver meets: generic, near-rotations, inverted, rank-deficient,
+    /// repeated singular values, zero, and lanes mixing them (so lanes converge at different
+    /// sweeps).
+    fn cases() -> Vec<Mat3> {
+        let mut state = 4242u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut out = Vec::new();
+        for k in 0..4000 {
+            let m = Mat3::from_fn(|_, _| next());
+            let r = nalgebra::Rotation3::from_scaled_axis(Vec3::new(next(), next(), next()) * 3.0)
+                .into_inner();
+            out.push(match k % 8 {
+                0 | 1 => 2.0 * m,
+                2 => r + 1e-3 * m,
+                3 => r * Mat3::from_diagonal(&Vec3::new(1.0, 1.0, -0.2 + 0.1 * next())),
+                4 => r * Mat3::from_diagonal(&Vec3::new(1.5, 1.5, 0.0)),
+                5 => Vec3::new(next(), next(), next()) * Vec3::new(next(), 1.0, next()).transpose(),
+                6 if k % 3 == 0 => Mat3::zeros(),
+                6 => Mat3::identity(),
+                _ => r * Mat3::from_diagonal(&Vec3::new(1.0 + next(), 1.0, 1.0)) * r.transpose(),
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn lanes_give_the_scalar_bits() {
+        for group in cases().chunks_exact(LANES) {
+            let f: [Mat3; LANES] = group.try_into().unwrap();
+            let batch = svd_rv_lanes(&f);
+            assert_eq!(batch, svd_rv_lanes_scalar_qr(&f));
+            for l in 0..LANES {
+                let one = svd_rv(&f[l]);
+                // Compare bits, not values: -0.0 and +0.0 must match too.
+                let bits = |s: &Svd| {
+                    s.u.iter()
+                        .chain(s.sigma.iter())
+                        .chain(s.v.iter())
+                        .map(|x| x.to_bits())
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(bits(&batch[l]), bits(&one), "F = {}", f[l]);
+            }
+            let gram: [Mat3; LANES] = std::array::from_fn(|l| f[l] * f[l].transpose());
+            let eigen = sym_eigen3_lanes(&gram);
+            for l in 0..LANES {
+                assert_eq!(eigen[l], sym_eigen3(&gram[l]));
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_pass_non_finite_input_through_like_the_scalar_solver() {
+        let f = [
+            Mat3::from_element(f64::NAN),
+            Mat3::identity() * 2.0,
+            Mat3::from_element(f64::INFINITY),
+            Mat3::zeros(),
+        ];
+        let batch = svd_rv_lanes(&f);
+        for l in 0..LANES {
+            let one = svd_rv(&f[l]);
+            let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+            assert!(
+                batch[l]
+                    .u
+                    .iter()
+                    .zip(one.u.iter())
+                    .all(|(a, b)| same(*a, *b))
+            );
+            assert!(
+                batch[l]
+                    .v
+                    .iter()
+                    .zip(one.v.iter())
+                    .all(|(a, b)| same(*a, *b))
+            );
+        }
+    }
+}
