@@ -16,70 +16,71 @@
 //! the four independent chains in flight; see `cargo run --release --example svd_batch` for the
 //! measured ns per SVD (docs/performance.md).
 
+use wide::f64x4;
+
 use super::{
-    MAX_SWEEPS, Mat3, PLANES, Svd, Vec3, align_null_pair, jacobi_rotation, jacobi_start,
-    sort_descending, svd_from_v,
+    MAX_SWEEPS, Mat3, PLANES, Svd, Vec3, align_null_pair, jacobi_start, sort_descending, svd_from_v,
 };
 
 /// How many matrices [`svd_rv_lanes`] decomposes together.
 pub const LANES: usize = 4;
 
-type Lanes = [f64; LANES];
-
 /// [`sym_eigen3`](super::sym_eigen3) of [`LANES`] symmetric matrices, with the same bits.
 pub fn sym_eigen3_lanes(a: &[Mat3; LANES]) -> [(Vec3, Mat3); LANES] {
-    let mut d = [[0.0; LANES]; 3];
-    let mut off = [[0.0; LANES]; 3];
-    let mut tolerance: Lanes = [0.0; LANES];
-    let mut done = [false; LANES];
+    let (mut d, mut off) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
+    let (mut tolerance, mut rotating) = ([0.0; LANES], [0.0; LANES]);
     for l in 0..LANES {
         let (dl, ol, tol) = jacobi_start(&a[l]);
         for i in 0..3 {
             d[i][l] = dl[i];
             off[i][l] = ol[i];
         }
-        match tol {
-            Some(tol) => tolerance[l] = tol,
-            None => done[l] = true,
+        if let Some(tol) = tol {
+            (tolerance[l], rotating[l]) = (tol, 1.0);
         }
     }
-    // q[row][col][lane], the identity.
-    let mut q = [[[0.0; LANES]; 3]; 3];
+    let (zero, one) = (f64x4::ZERO, f64x4::ONE);
+    let (mut d, mut off) = (d.map(f64x4::new), off.map(f64x4::new));
+    let tolerance = f64x4::new(tolerance);
+    // The lanes still rotating (all bits set) and those frozen (zero).
+    let mut active = f64x4::new(rotating).simd_ne(zero);
+    // q[row][col], the identity.
+    let mut q = [[zero; 3]; 3];
     for (i, row) in q.iter_mut().enumerate() {
-        row[i] = [1.0; LANES];
+        row[i] = one;
     }
     for _ in 0..MAX_SWEEPS {
-        for l in 0..LANES {
-            done[l] |= off[0][l].abs() + off[1][l].abs() + off[2][l].abs() <= tolerance[l];
-        }
-        if done == [true; LANES] {
+        let sum = off[0].abs() + off[1].abs() + off[2].abs();
+        active = sum.simd_le(tolerance).select(zero, active);
+        if !active.any() {
             break;
         }
         for (p, r, pr, pk, rk) in PLANES {
-            let (mut t, mut c, mut s) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-            let mut rotate = [false; LANES];
-            for l in 0..LANES {
-                let apr = off[pr][l];
-                (t[l], c[l], s[l]) = jacobi_rotation(d[p][l], d[r][l], apr);
-                rotate[l] = !done[l] && apr != 0.0;
-            }
-            let pick = |go: bool, new: f64, old: f64| if go { new } else { old };
-            for l in 0..LANES {
-                let (go, apr) = (rotate[l], off[pr][l]);
-                d[p][l] = pick(go, d[p][l] - t[l] * apr, d[p][l]);
-                d[r][l] = pick(go, d[r][l] + t[l] * apr, d[r][l]);
-                off[pr][l] = pick(go, 0.0, apr);
-                let (apk, ark) = (off[pk][l], off[rk][l]);
-                off[pk][l] = pick(go, c[l] * apk - s[l] * ark, apk);
-                off[rk][l] = pick(go, s[l] * apk + c[l] * ark, ark);
-                for row in q.iter_mut() {
-                    let (qp, qr) = (row[p][l], row[r][l]);
-                    row[p][l] = pick(go, c[l] * qp - s[l] * qr, qp);
-                    row[r][l] = pick(go, s[l] * qp + c[l] * qr, qr);
-                }
+            let apr = off[pr];
+            let go = active & apr.simd_ne(zero);
+            // `jacobi_rotation` in lanes, op for op (signum by its sign bit).
+            let theta = (d[r] - d[p]) / (f64x4::splat(2.0) * apr);
+            let signum = one | (theta & f64x4::splat(-0.0));
+            let t = theta
+                .is_finite()
+                .select(signum / (theta.abs() + (theta * theta + one).sqrt()), zero);
+            let c = one / (t * t + one).sqrt();
+            let s = t * c;
+            d[p] = go.select(d[p] - t * apr, d[p]);
+            d[r] = go.select(d[r] + t * apr, d[r]);
+            off[pr] = go.select(zero, apr);
+            let (apk, ark) = (off[pk], off[rk]);
+            off[pk] = go.select(c * apk - s * ark, apk);
+            off[rk] = go.select(s * apk + c * ark, ark);
+            for row in q.iter_mut() {
+                let (qp, qr) = (row[p], row[r]);
+                row[p] = go.select(c * qp - s * qr, qp);
+                row[r] = go.select(s * qp + c * qr, qr);
             }
         }
     }
+    let d = d.map(f64x4::to_array);
+    let q = q.map(|row| row.map(f64x4::to_array));
     std::array::from_fn(|l| {
         let lambda = Vec3::new(d[0][l], d[1][l], d[2][l]);
         sort_descending(lambda, Mat3::from_fn(|i, j| q[i][j][l]))
@@ -98,37 +99,32 @@ pub fn svd_rv_lanes(f: &[Mat3; LANES]) -> [Svd; LANES] {
 /// of the four QRs together, a rotation the scalar code skips (h = 0) blended away.
 fn qr_lanes(f: &[Mat3; LANES], v: [Mat3; LANES]) -> [Svd; LANES] {
     let fv: [Mat3; LANES] = std::array::from_fn(|l| f[l] * v[l]);
-    // b[row][col][lane] = F·V, ut[row][col][lane] accumulates Qᵀ = G₃G₂G₁ from the identity.
-    let mut b = [[[0.0; LANES]; 3]; 3];
-    let mut ut = [[[0.0; LANES]; 3]; 3];
+    let zero = f64x4::ZERO;
+    // b[row][col] = F·V, ut[row][col] accumulates Qᵀ = G₃G₂G₁ from the identity.
+    let mut b = [[zero; 3]; 3];
+    let mut ut = [[zero; 3]; 3];
     for i in 0..3 {
         for j in 0..3 {
-            b[i][j] = std::array::from_fn(|l| fv[l][(i, j)]);
+            b[i][j] = f64x4::new(std::array::from_fn(|l| fv[l][(i, j)]));
         }
-        ut[i][i] = [1.0; LANES];
+        ut[i][i] = f64x4::ONE;
     }
     for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {
-        let (mut c, mut s, mut go) = ([0.0; LANES], [0.0; LANES], [false; LANES]);
-        for l in 0..LANES {
-            let (x, y) = (b[p][col][l], b[r][col][l]);
-            let h = (x * x + y * y).sqrt();
-            go[l] = h != 0.0;
-            (c[l], s[l]) = (x / h, y / h);
-        }
-        let pick = |go: bool, new: f64, old: f64| if go { new } else { old };
+        let (x, y) = (b[p][col], b[r][col]);
+        let h = (x * x + y * y).sqrt();
+        let go = h.simd_ne(zero);
+        let (c, s) = (x / h, y / h);
         for m in [&mut b, &mut ut] {
             for k in 0..3 {
-                for l in 0..LANES {
-                    let (mp, mr) = (m[p][k][l], m[r][k][l]);
-                    m[p][k][l] = pick(go[l], c[l] * mp + s[l] * mr, mp);
-                    m[r][k][l] = pick(go[l], -s[l] * mp + c[l] * mr, mr);
-                }
+                let (mp, mr) = (m[p][k], m[r][k]);
+                m[p][k] = go.select(c * mp + s * mr, mp);
+                m[r][k] = go.select(-s * mp + c * mr, mr);
             }
         }
-        for l in 0..LANES {
-            b[r][col][l] = pick(go[l], 0.0, b[r][col][l]);
-        }
+        b[r][col] = go.select(zero, b[r][col]);
     }
+    let b = b.map(|row| row.map(f64x4::to_array));
+    let ut = ut.map(|row| row.map(f64x4::to_array));
     std::array::from_fn(|l| {
         let sigma = Vec3::new(b[0][0][l], b[1][1][l], b[2][2][l]);
         let mut u = Mat3::from_fn(|i, j| ut[j][i][l]);
