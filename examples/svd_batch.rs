@@ -61,8 +61,10 @@ fn batched_with(fs: &[Mat3], out: &mut [Svd], svd: fn(&[Mat3; LANES]) -> [Svd; L
     }
 }
 
-/// The variants timed: name and the function over all F.
-const VARIANTS: [(&str, fn(&[Mat3], &mut [Svd])); 3] = [
+/// A variant timed: its name and the function over all F.
+type Variant = (&'static str, fn(&[Mat3], &mut [Svd]));
+
+const VARIANTS: [Variant; 3] = [
     ("scalar", scalar),
     ("lanes", |fs, out| batched_with(fs, out, svd_rv_lanes)),
     ("eig-only", |fs, out| {

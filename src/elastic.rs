@@ -840,7 +840,7 @@ mod tests {
     #[test]
     fn batched_loops_match_the_per_tet_kernels() {
         let mesh = box_mesh(Vec3::zeros(), Vec3::new(7.0, 5.0, 3.0), [7, 5, 3]);
-        assert!(mesh.tets.len() > CHUNK && mesh.tets.len() % LANES != 0);
+        assert!(mesh.tets.len() > CHUNK && !mesh.tets.len().is_multiple_of(LANES));
         let lame = Lame::from_young_poisson(1e6, 0.3);
         let linear = MaterialRegion {
             model: Model::new(ModelKind::Linear, lame),

@@ -53,7 +53,7 @@ fn jacobi_start(a: &Mat3) -> ([f64; 3], [f64; 3], Option<f64>) {
         .iter()
         .chain(off.iter())
         .fold(0.0f64, |m, x| m.max(x.abs()));
-    let tolerance = (scale != 0.0 && scale.is_finite()).then(|| f64::EPSILON * 1e-3 * scale);
+    let tolerance = (scale != 0.0 && scale.is_finite()).then_some(f64::EPSILON * 1e-3 * scale);
     (d, off, tolerance)
 }
 

@@ -16,6 +16,9 @@
 //! time per SVD against 0.50–0.55 with `wide` under the same load; eight lanes measured within
 //! noise of four. `cargo run --release --example svd_batch` measures it (docs/performance.md).
 
+// Rows p and r of small fixed arrays are indexed together: clearer than iterators.
+#![allow(clippy::needless_range_loop)]
+
 use wide::f64x4;
 
 use super::{
