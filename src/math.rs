@@ -8,6 +8,9 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+mod lanes;
+pub use lanes::{LANES, svd_rv_lanes, svd_rv_lanes_scalar_qr, sym_eigen3_lanes};
+
 /// A 3-vector of f64.
 pub type Vec3 = Vector3<f64>;
 /// A 3×3 matrix of f64 (column-major, as nalgebra stores it).
@@ -35,41 +38,58 @@ impl Svd {
 /// after 3–5 sweeps at machine precision (3 are not always enough, so we test for convergence).
 const MAX_SWEEPS: usize = 12;
 
-/// Eigen-decomposition of a symmetric 3×3 matrix `a = Q · diag(λ) · Qᵀ`, eigenvalues sorted in
-/// descending order, det Q = +1. The matrix must be symmetric.
-pub fn sym_eigen3(a: &Mat3) -> (Vec3, Mat3) {
-    // The six distinct entries as scalars: each rotation touches each once.
-    let mut d = [a[(0, 0)], a[(1, 1)], a[(2, 2)]];
-    let mut off = [a[(0, 1)], a[(0, 2)], a[(1, 2)]]; // (0,1), (0,2), (1,2)
-    let mut q = Mat3::identity();
+/// The Jacobi rotations in the planes (p, r), in sweep order: `pr` indexes entry (p, r) in the
+/// off-diagonal triple, `pk` and `rk` the entries coupling p and r to the third index.
+const PLANES: [(usize, usize, usize, usize, usize); 3] =
+    [(0, 1, 0, 1, 2), (0, 2, 1, 0, 2), (1, 2, 2, 0, 1)];
+
+/// The diagonal, the off-diagonal triple (0,1), (0,2), (1,2), and the convergence tolerance of
+/// a symmetric matrix; `None` when it is zero or not finite (nothing to rotate).
+#[inline]
+fn jacobi_start(a: &Mat3) -> ([f64; 3], [f64; 3], Option<f64>) {
+    let d = [a[(0, 0)], a[(1, 1)], a[(2, 2)]];
+    let off = [a[(0, 1)], a[(0, 2)], a[(1, 2)]];
     let scale = d
         .iter()
         .chain(off.iter())
         .fold(0.0f64, |m, x| m.max(x.abs()));
-    if scale == 0.0 || !scale.is_finite() {
+    let tolerance = (scale != 0.0 && scale.is_finite()).then_some(f64::EPSILON * 1e-3 * scale);
+    (d, off, tolerance)
+}
+
+/// The rotation `(t, c, s)` that zeroes `apr` between diagonal entries `dp` and `dr`:
+/// t = tan φ, the smaller root of t² + 2θt − 1 = 0 (the smallest rotation), c = cos φ, s = sin φ.
+#[inline(always)]
+fn jacobi_rotation(dp: f64, dr: f64, apr: f64) -> (f64, f64, f64) {
+    let theta = (dr - dp) / (2.0 * apr);
+    let t = if theta.is_finite() {
+        theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+    } else {
+        0.0
+    };
+    let c = 1.0 / (t * t + 1.0).sqrt();
+    (t, c, t * c)
+}
+
+/// Eigen-decomposition of a symmetric 3×3 matrix `a = Q · diag(λ) · Qᵀ`, eigenvalues sorted in
+/// descending order, det Q = +1. The matrix must be symmetric.
+pub fn sym_eigen3(a: &Mat3) -> (Vec3, Mat3) {
+    // The six distinct entries as scalars: each rotation touches each once.
+    let (mut d, mut off, tolerance) = jacobi_start(a);
+    let mut q = Mat3::identity();
+    let Some(tolerance) = tolerance else {
         return sort_descending(Vec3::from(d), q);
-    }
-    let tolerance = f64::EPSILON * 1e-3 * scale;
+    };
     for _ in 0..MAX_SWEEPS {
         if off[0].abs() + off[1].abs() + off[2].abs() <= tolerance {
             break;
         }
-        // Rotations in the planes (p, r); `pr` indexes entry (p, r) in `off`, `pk` and `rk` the
-        // entries coupling p and r to the third index.
-        for (p, r, pr, pk, rk) in [(0, 1, 0, 1, 2), (0, 2, 1, 0, 2), (1, 2, 2, 0, 1)] {
+        for (p, r, pr, pk, rk) in PLANES {
             let apr = off[pr];
             if apr == 0.0 {
                 continue;
             }
-            let theta = (d[r] - d[p]) / (2.0 * apr);
-            // t = tan φ, the smaller root of t² + 2θt − 1 = 0, for the smallest rotation.
-            let t = if theta.is_finite() {
-                theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
-            } else {
-                0.0
-            };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
+            let (t, c, s) = jacobi_rotation(d[p], d[r], apr);
             d[p] -= t * apr;
             d[r] += t * apr;
             off[pr] = 0.0;
@@ -111,6 +131,12 @@ fn sort_descending(lambda: Vec3, q: Mat3) -> (Vec3, Mat3) {
 /// forces need.
 pub fn svd_rv(f: &Mat3) -> Svd {
     let (_, v) = sym_eigen3(&(f.transpose() * f));
+    svd_from_v(f, v)
+}
+
+/// U and σ from a Givens QR of F·V, given V (the second half of [`svd_rv`]).
+#[inline]
+fn svd_from_v(f: &Mat3, v: Mat3) -> Svd {
     let mut b = f * v;
     let mut ut = Mat3::identity(); // accumulates Qᵀ = G₃G₂G₁
     for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {

@@ -43,17 +43,17 @@ impl ElasticBody {
         }
         let how = damping.tangent(lin.definiteness);
         let shifted = damping.shift != 0.0;
-        // One tet: its force and K_d·v slots; returns W·Ψ and, without a shift, Newton's
-        // tangent and `adaptive`'s exact pieces.
-        let kernel = |t: usize, slot: &mut TetSlot, kv: &mut TetSlot| {
+        // One tet, given F and its SVD: its force and K_d·v slots; returns W·Ψ and, without a
+        // shift, Newton's tangent and `adaptive`'s exact pieces.
+        let kernel = |t: usize, f: &Mat3, svd: &Svd, slot: &mut TetSlot, kv: &mut TetSlot| {
             let (bm, w) = (&self.bm[t], self.volume[t]);
             let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * bm;
-            let f = self.deformation_gradient(x, t);
+            let model = self.model_of(t);
             let (psi, stress, dp, tangent) = if shifted {
-                let (psi, stress, dp) = self.model_of(t).damping_stress(&f, &df_v, how.damping);
+                let (psi, stress, dp) = model.damping_stress_svd(f, svd, &df_v, how.damping);
                 (psi, stress, dp, None)
             } else {
-                let e = self.model_of(t).evaluate_damped(&f, &df_v, &how);
+                let e = model.evaluate_damped_unshifted(f, svd, &df_v, &how);
                 (e.psi, e.stress, e.damping, Some((e.tangent, e.exact)))
             };
             *slot = slot_of(tet_forces(&stress, bm, w));
@@ -61,6 +61,7 @@ impl ElasticBody {
             *kv = slot_of(tet_forces(&(-dp), bm, w));
             (w * psi, tangent)
         };
+        let svd = self.uses_svd();
         let chunks = lin
             .tangents
             .par_chunks_mut(CHUNK)
@@ -70,36 +71,32 @@ impl ElasticBody {
             .enumerate();
         if lin.alternate.is_empty() {
             chunks.for_each(|(c, (((tangents, buffer), kv), energy))| {
+                let first = c * CHUNK;
                 let mut sum = 0.0;
-                for (k, ((tangent, slot), kv)) in
-                    tangents.iter_mut().zip(buffer).zip(kv).enumerate()
-                {
-                    let (psi, tan) = kernel(c * CHUNK + k, slot, kv);
+                let f_of = |k: usize| self.deformation_gradient(x, first + k);
+                self.with_svds(svd, tangents.len(), f_of, |k, f, s| {
+                    let (psi, tan) = kernel(first + k, f, s, &mut buffer[k], &mut kv[k]);
                     sum += psi;
                     if let Some((tan, _)) = tan {
-                        *tangent = tan;
+                        tangents[k] = tan;
                     }
-                }
+                });
                 *energy = sum;
             });
         } else {
             chunks.zip(lin.alternate.par_chunks_mut(CHUNK)).for_each(
                 |((c, (((tangents, buffer), kv), energy)), alternate)| {
+                    let first = c * CHUNK;
                     let mut sum = 0.0;
-                    for (k, (((tangent, slot), kv), alternate)) in tangents
-                        .iter_mut()
-                        .zip(buffer)
-                        .zip(kv)
-                        .zip(alternate)
-                        .enumerate()
-                    {
-                        let (psi, tan) = kernel(c * CHUNK + k, slot, kv);
+                    let f_of = |k: usize| self.deformation_gradient(x, first + k);
+                    self.with_svds(svd, tangents.len(), f_of, |k, f, s| {
+                        let (psi, tan) = kernel(first + k, f, s, &mut buffer[k], &mut kv[k]);
                         sum += psi;
                         if let Some((tan, exact)) = tan {
-                            *tangent = tan;
-                            *alternate = exact;
+                            tangents[k] = tan;
+                            alternate[k] = exact;
                         }
-                    }
+                    });
                     *energy = sum;
                 },
             );
@@ -124,25 +121,45 @@ impl ElasticBody {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(damping.velocities.len(), self.vertex_count());
         let how = damping.tangent(lin.definiteness);
-        let tangent_of = |t: usize| {
+        // G = F + θ·dF_v of tet t; its SVDs are made in batches.
+        let g_of = |t: usize| {
             let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * self.bm[t];
             let f = self.deformation_gradient(x, t);
-            let g = crate::material::shifted_deformation(&f, &df_v, damping.shift);
-            self.model_of(t).damped_tangent(&g, &how)
+            crate::material::shifted_deformation(&f, &df_v, damping.shift)
         };
+        let svd = self.uses_svd();
         if lin.alternate.is_empty() {
             lin.tangents
-                .par_iter_mut()
+                .par_chunks_mut(CHUNK)
                 .enumerate()
-                .with_min_len(CHUNK)
-                .for_each(|(t, tangent)| *tangent = tangent_of(t).0);
+                .for_each(|(c, tangents)| {
+                    let first = c * CHUNK;
+                    self.with_svds(
+                        svd,
+                        tangents.len(),
+                        |k| g_of(first + k),
+                        |k, g, s| {
+                            tangents[k] = self.model_of(first + k).damped_tangent_svd(g, s, &how).0;
+                        },
+                    );
+                });
         } else {
             lin.tangents
-                .par_iter_mut()
-                .zip(lin.alternate.par_iter_mut())
+                .par_chunks_mut(CHUNK)
+                .zip(lin.alternate.par_chunks_mut(CHUNK))
                 .enumerate()
-                .with_min_len(CHUNK)
-                .for_each(|(t, (tangent, alternate))| (*tangent, *alternate) = tangent_of(t));
+                .for_each(|(c, (tangents, alternate))| {
+                    let first = c * CHUNK;
+                    self.with_svds(
+                        svd,
+                        tangents.len(),
+                        |k| g_of(first + k),
+                        |k, g, s| {
+                            (tangents[k], alternate[k]) =
+                                self.model_of(first + k).damped_tangent_svd(g, s, &how);
+                        },
+                    );
+                });
         }
         lin.tangents_pending = false;
         lin.exact_active = false;

@@ -13,7 +13,7 @@
 //! eigenvalues of these four blocks, which makes the tangent (and so K) positive semi-definite.
 
 use super::{DampedEvaluation, DampedTangent, Definiteness, DiagonalPieces, Material, Tangent};
-use crate::math::{Mat3, Vec3, abs_psd3, clamp_psd3, is_psd3, map_eigenvalues, svd_rv};
+use crate::math::{Mat3, Svd, Vec3, abs_psd3, clamp_psd3, is_psd3, map_eigenvalues, svd_rv};
 
 /// The index pairs (i, j), i < j, of the three 2×2 blocks, in the order [`Tangent`] stores them.
 pub const PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
@@ -194,7 +194,12 @@ impl<M: Isotropic> Invertible<M> {
     /// Ψ, P and the tangent from one SVD: what the element loop needs per Newton iterate.
     #[inline]
     pub fn evaluate(&self, f: &Mat3, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
-        let svd = svd_rv(f);
+        self.evaluate_svd(&svd_rv(f), definiteness)
+    }
+
+    /// [`Invertible::evaluate`] given F's SVD (`svd_rv(F)`, perhaps made in a batch).
+    #[inline]
+    pub fn evaluate_svd(&self, svd: &Svd, definiteness: Definiteness) -> (f64, Mat3, Tangent) {
         let d = self.model.derivatives(&svd.sigma);
         let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
         let tangent = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, definiteness);
@@ -217,7 +222,17 @@ impl<M: Isotropic> Invertible<M> {
                 exact,
             };
         }
-        let svd = svd_rv(f);
+        self.evaluate_damped_unshifted(&svd_rv(f), df_v, how)
+    }
+
+    /// [`Invertible::evaluate_damped`] without a shift (`how.shift` is not read), given F's SVD.
+    #[inline]
+    pub fn evaluate_damped_unshifted(
+        &self,
+        svd: &Svd,
+        df_v: &Mat3,
+        how: &DampedTangent,
+    ) -> DampedEvaluation {
         let d = self.model.derivatives(&svd.sigma);
         let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
         let at_f = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
@@ -240,7 +255,17 @@ impl<M: Isotropic> Invertible<M> {
         df_v: &Mat3,
         damping: super::DampingStiffness,
     ) -> (f64, Mat3, Mat3) {
-        let svd = svd_rv(f);
+        self.damping_stress_svd(&svd_rv(f), df_v, damping)
+    }
+
+    /// [`Invertible::damping_stress`] given F's SVD.
+    #[inline]
+    pub fn damping_stress_svd(
+        &self,
+        svd: &Svd,
+        df_v: &Mat3,
+        damping: super::DampingStiffness,
+    ) -> (f64, Mat3, Mat3) {
         let d = self.model.derivatives(&svd.sigma);
         let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
         let at_f = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, damping.definiteness());
@@ -251,7 +276,12 @@ impl<M: Isotropic> Invertible<M> {
     /// (see [`super::Model::damped_tangent`]).
     #[inline]
     pub fn damped_tangent(&self, g: &Mat3, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
-        let svd = svd_rv(g);
+        self.damped_tangent_svd(&svd_rv(g), how)
+    }
+
+    /// [`Invertible::damped_tangent`] given G's SVD.
+    #[inline]
+    pub fn damped_tangent_svd(&self, svd: &Svd, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
         let d = self.model.derivatives(&svd.sigma);
         let at_g = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
         self.newton_tangent(&svd.u, &svd.v, &svd.sigma, &d, &at_g, how)

@@ -42,7 +42,7 @@ pub use neo_hookean::NeoHookean;
 pub use st_venant_kirchhoff::StVenantKirchhoff;
 pub use stable_neo_hookean::StableNeoHookean;
 
-use crate::math::{Mat3, Vec3};
+use crate::math::{Mat3, Svd, Vec3};
 
 /// How the stress differential treats the indefinite parts of ∂P/∂F, per element.
 ///
@@ -609,6 +609,86 @@ impl Model {
     /// `adaptive`'s exact pieces, for when Newton needs them.
     pub fn damped_tangent(&self, g: &Mat3, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
         with_model!(self, m => m.damped_tangent(g, how))
+    }
+}
+
+/// Run `$body` with `$m` bound to the `Invertible<_>` inside a [`Model`], or `$linear` with
+/// `$l` bound to the [`LinearElastic`]: for the kernels that take an SVD made elsewhere.
+macro_rules! with_svd_model {
+    ($model:expr, $m:ident => $body:expr, $l:ident => $linear:expr) => {
+        match $model {
+            Model::NeoHookean($m) => $body,
+            Model::NeoHookeanClamped($m) => $body,
+            Model::Corotated($m) => $body,
+            Model::StableNeoHookean($m) => $body,
+            Model::StVenantKirchhoff($m) => $body,
+            Model::MooneyRivlin($m) => $body,
+            Model::Linear($l) => $linear,
+        }
+    };
+}
+
+/// The same kernels given the SVD of their F (or G), so that the element loops can make the
+/// SVDs of several tets in one batch ([`crate::math::svd_rv_lanes`]). `svd` must be
+/// `svd_rv(f)`; linear elasticity, which needs no SVD, ignores it and reads `f`.
+impl Model {
+    /// False for linear elasticity, whose kernels need no SVD.
+    pub fn uses_svd(&self) -> bool {
+        !matches!(self, Model::Linear(_))
+    }
+
+    /// [`Model::evaluate`] given F's SVD.
+    #[inline]
+    pub fn evaluate_svd(
+        &self,
+        f: &Mat3,
+        svd: &Svd,
+        definiteness: Definiteness,
+    ) -> (f64, Mat3, Tangent) {
+        with_svd_model!(self, m => m.evaluate_svd(svd, definiteness), l => l.evaluate(f, definiteness))
+    }
+
+    /// [`Model::evaluate_damped`] without a shift (`how.shift` is not read), given F's SVD.
+    #[inline]
+    pub fn evaluate_damped_unshifted(
+        &self,
+        f: &Mat3,
+        svd: &Svd,
+        df_v: &Mat3,
+        how: &DampedTangent,
+    ) -> DampedEvaluation {
+        with_svd_model!(
+            self,
+            m => m.evaluate_damped_unshifted(svd, df_v, how),
+            l => l.evaluate_damped(f, df_v, &DampedTangent { shift: 0.0, ..*how })
+        )
+    }
+
+    /// [`Model::damping_stress`] given F's SVD.
+    #[inline]
+    pub fn damping_stress_svd(
+        &self,
+        f: &Mat3,
+        svd: &Svd,
+        df_v: &Mat3,
+        damping: DampingStiffness,
+    ) -> (f64, Mat3, Mat3) {
+        with_svd_model!(
+            self,
+            m => m.damping_stress_svd(svd, df_v, damping),
+            l => l.damping_stress(f, df_v, damping)
+        )
+    }
+
+    /// [`Model::damped_tangent`] given G's SVD.
+    #[inline]
+    pub fn damped_tangent_svd(
+        &self,
+        g: &Mat3,
+        svd: &Svd,
+        how: &DampedTangent,
+    ) -> (Tangent, DiagonalPieces) {
+        with_svd_model!(self, m => m.damped_tangent_svd(svd, how), l => l.damped_tangent(g, how))
     }
 }
 
