@@ -24,8 +24,11 @@ use crate::mesh::TetMesh;
 
 mod assembly;
 mod damped;
+mod element;
 pub mod part;
 pub use assembly::AssemblyWork;
+use element::upper_index;
+pub use element::{VON_MISES_MIN_J, corner_gradients, element_stiffness, tet_forces, von_mises};
 
 /// Tets per parallel work item. Fixed (not derived from the thread count) so that chunked sums
 /// are the same on any machine.
@@ -572,100 +575,6 @@ impl ElasticBody {
     }
 }
 
-/// The gradient vectors bₐ of a tet's four barycentric coordinates (dF = Σₐ dxₐ ⊗ bₐ):
-/// b₁..b₃ are the rows of Bm, b₀ = −(b₁ + b₂ + b₃).
-#[inline]
-pub fn corner_gradients(bm: &Mat3) -> [Vec3; 4] {
-    let (r0, r1, r2) = (
-        bm.row(0).transpose(),
-        bm.row(1).transpose(),
-        bm.row(2).transpose(),
-    );
-    [-(r0 + r1 + r2), r0, r1, r2]
-}
-
-/// The upper blocks (a ≤ b, row-major: (0,0), (0,1), …, (3,3)) of one tet's 12×12 stiffness
-/// `K_e[(a,i),(b,j)] = W·⟨∂P/∂F : (eⱼ ⊗ b_b), eᵢ ⊗ bₐ⟩`, from its tangent.
-///
-/// Computed in the tangent's diagonal space as a Gram form: the unit displacement (a, i) is
-/// dF̂ = uᵢ cₐᵀ there (uᵢ = row i of U, cₐ = Vᵀbₐ); its coordinates z = (diagonal of dF̂, the
-/// symmetric and the antisymmetric combination of each off-diagonal pair) make
-/// `K_e = W·Zᵀ D Z` with D = diag(∂²Ψ̂/∂σ², sym/2, skew/2). About half the work of applying the
-/// tangent to twelve unit dF.
-pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
-    let grads = corner_gradients(bm);
-    let vt = tangent.v.transpose();
-    let mut z = [[0.0f64; 9]; 12];
-    let mut dz = [[0.0f64; 9]; 12];
-    for (a, g) in grads.iter().enumerate() {
-        let c = vt * g;
-        for i in 0..3 {
-            let u = tangent.u.row(i);
-            let d = &mut z[3 * a + i];
-            for l in 0..3 {
-                d[l] = u[l] * c[l];
-            }
-            for (n, &(k, l)) in crate::material::isotropic::PAIRS.iter().enumerate() {
-                let (x, y) = (u[k] * c[l], u[l] * c[k]);
-                d[3 + n] = x + y;
-                d[6 + n] = x - y;
-            }
-            let hd = tangent.diag * Vec3::new(d[0], d[1], d[2]);
-            let e = &mut dz[3 * a + i];
-            e[..3].copy_from_slice(hd.as_slice());
-            for n in 0..3 {
-                e[3 + n] = 0.5 * tangent.pair_sym[n] * z[3 * a + i][3 + n];
-                e[6 + n] = 0.5 * tangent.pair_skew[n] * z[3 * a + i][6 + n];
-            }
-        }
-    }
-    let mut blocks = [Mat3::zeros(); 10];
-    let mut k = 0;
-    for a in 0..4 {
-        for b in a..4 {
-            blocks[k] = Mat3::from_fn(|i, j| {
-                let (p, q) = (&z[3 * a + i], &dz[3 * b + j]);
-                w * (0..9).map(|m| p[m] * q[m]).sum::<f64>()
-            });
-            k += 1;
-        }
-    }
-    blocks
-}
-
-/// Index of block (a, b), a ≤ b, in [`element_stiffness`]'s output.
-#[inline]
-fn upper_index(a: usize, b: usize) -> usize {
-    // Rows of the upper triangle hold 4, 3, 2, 1 blocks.
-    [0, 4, 7, 9][a] + b - a
-}
-
-/// Below this J, [`von_mises`] divides by it instead of J: a crushed or inverted tet shows a
-/// large but finite stress rather than one that swamps every colour range or changes sign.
-pub const VON_MISES_MIN_J: f64 = 0.05;
-
-/// The von Mises equivalent (Pa) of the Cauchy stress σ = P·Fᵀ/J: with the deviator
-/// s = σ − tr(σ)/3·I, σ_vM = √(3/2 s:s). J is floored at [`VON_MISES_MIN_J`].
-pub fn von_mises(p: &Mat3, f: &Mat3) -> f64 {
-    let j = f.determinant().max(VON_MISES_MIN_J);
-    let sigma = p * f.transpose() / j;
-    let s = sigma - Mat3::identity() * (sigma.trace() / 3.0);
-    (1.5 * s.norm_squared()).sqrt()
-}
-
-/// The elastic forces of one tet from its stress: `H = −W·P·Bmᵀ`, columns on vertices 1–3,
-/// minus their sum on vertex 0. With `dP` in place of P it is the force differential.
-#[inline]
-pub fn tet_forces(p: &Mat3, bm: &Mat3, w: f64) -> TetVectors {
-    let h = -w * p * bm.transpose();
-    let (f1, f2, f3) = (
-        h.column(0).into_owned(),
-        h.column(1).into_owned(),
-        h.column(2).into_owned(),
-    );
-    [-(f1 + f2 + f3), f1, f2, f3]
-}
-
 /// Rayleigh stiffness damping `f_d = −γ·K_d(x)·v`, evaluated in the same pass as the forces
 /// (see [`ElasticBody::linearize_damped_into`]); γ itself is the caller's.
 #[derive(Clone, Copy, Debug)]
@@ -829,85 +738,4 @@ impl Linearization {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::material::{Lame, ModelKind, shifted_deformation};
-    use crate::mesh::generate::box_mesh;
-
-    /// The element loops make their SVDs four at a time; every tet must still get exactly what
-    /// the per-tet kernels give (the same bits), over two chunks with a short last group, with
-    /// inverted tets and a linear-elastic region (no SVD) among Neo-Hookean tets.
-    #[test]
-    fn batched_loops_match_the_per_tet_kernels() {
-        let mesh = box_mesh(Vec3::zeros(), Vec3::new(7.0, 5.0, 3.0), [7, 5, 3]);
-        assert!(mesh.tets.len() > CHUNK && !mesh.tets.len().is_multiple_of(LANES));
-        let lame = Lame::from_young_poisson(1e6, 0.3);
-        let linear = MaterialRegion {
-            model: Model::new(ModelKind::Linear, lame),
-            density: 1000.0,
-            tets: (0..mesh.tets.len()).step_by(7).collect(),
-        };
-        let model = Model::new(ModelKind::NeoHookean, lame);
-        let body = ElasticBody::with_regions(mesh, model, 1000.0, vec![linear]).unwrap();
-        let mut state = 31u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
-        let x: Vec<Vec3> = body
-            .mesh
-            .positions
-            .iter()
-            .map(|p| p + 1.2 * Vec3::new(next(), next(), next()))
-            .collect();
-        let v: Vec<Vec3> = x
-            .iter()
-            .map(|_| Vec3::new(next(), next(), next()))
-            .collect();
-        assert!(body.deformation_stats(&x).inverted > 0);
-        let n = body.vertex_count();
-        let (mut forces, mut kv) = (vec![Vec3::zeros(); n], vec![Vec3::zeros(); n]);
-
-        let mut lin = Linearization::new(&body, Definiteness::Projected);
-        let energy = body.linearize_into(&x, &mut lin, &mut forces);
-        let mut expected = 0.0;
-        for chunk in (0..body.tet_count()).collect::<Vec<_>>().chunks(CHUNK) {
-            let mut sum = 0.0;
-            for &t in chunk {
-                let f = body.deformation_gradient(&x, t);
-                let (psi, _, tangent) = body.model_of(t).evaluate(&f, Definiteness::Projected);
-                assert_eq!(lin.tangents()[t], tangent, "tet {t}");
-                sum += body.volume[t] * psi;
-            }
-            expected += sum;
-        }
-        assert_eq!(energy.to_bits(), expected.to_bits());
-
-        for shift in [0.0, 0.05] {
-            let damping = Damping {
-                velocities: &v,
-                stiffness: DampingStiffness::Projected,
-                shift,
-                weight: 0.3,
-            };
-            let how = damping.tangent(Definiteness::Adaptive);
-            let mut lin = Linearization::new(&body, Definiteness::Adaptive);
-            body.linearize_damped_into(&x, &damping, &mut lin, &mut forces, &mut kv);
-            for t in 0..body.tet_count() {
-                let f = body.deformation_gradient(&x, t);
-                let df_v = TetMesh::edge_matrix(&v, &body.mesh.tets[t]) * body.bm[t];
-                let g = shifted_deformation(&f, &df_v, shift);
-                let (tangent, _) = body.model_of(t).damped_tangent(&g, &how);
-                assert_eq!(lin.tangents()[t], tangent, "tet {t}, shift {shift}");
-            }
-        }
-        // The forces are those of the per-tet stresses.
-        let mut reference = vec![Vec3::zeros(); n];
-        body.add_forces(&x, &mut reference);
-        let mut lin = Linearization::new(&body, Definiteness::Projected);
-        body.linearize_into(&x, &mut lin, &mut forces);
-        assert_eq!(forces, reference);
-    }
-}
+mod tests;

@@ -1,0 +1,103 @@
+//! One tet's kernels: its forces from a stress, its 12×12 stiffness from a tangent, the von
+//! Mises equivalent of its stress.
+
+// Kernels index small fixed arrays (corners, components) by position: clearer than iterators.
+#![allow(clippy::needless_range_loop)]
+
+use super::TetVectors;
+use crate::material::Tangent;
+use crate::math::{Mat3, Vec3};
+
+/// The gradient vectors bₐ of a tet's four barycentric coordinates (dF = Σₐ dxₐ ⊗ bₐ):
+/// b₁..b₃ are the rows of Bm, b₀ = −(b₁ + b₂ + b₃).
+#[inline]
+pub fn corner_gradients(bm: &Mat3) -> [Vec3; 4] {
+    let (r0, r1, r2) = (
+        bm.row(0).transpose(),
+        bm.row(1).transpose(),
+        bm.row(2).transpose(),
+    );
+    [-(r0 + r1 + r2), r0, r1, r2]
+}
+
+/// The upper blocks (a ≤ b, row-major: (0,0), (0,1), …, (3,3)) of one tet's 12×12 stiffness
+/// `K_e[(a,i),(b,j)] = W·⟨∂P/∂F : (eⱼ ⊗ b_b), eᵢ ⊗ bₐ⟩`, from its tangent.
+///
+/// Computed in the tangent's diagonal space as a Gram form: the unit displacement (a, i) is
+/// dF̂ = uᵢ cₐᵀ there (uᵢ = row i of U, cₐ = Vᵀbₐ); its coordinates z = (diagonal of dF̂, the
+/// symmetric and the antisymmetric combination of each off-diagonal pair) make
+/// `K_e = W·Zᵀ D Z` with D = diag(∂²Ψ̂/∂σ², sym/2, skew/2). About half the work of applying the
+/// tangent to twelve unit dF.
+pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
+    let grads = corner_gradients(bm);
+    let vt = tangent.v.transpose();
+    let mut z = [[0.0f64; 9]; 12];
+    let mut dz = [[0.0f64; 9]; 12];
+    for (a, g) in grads.iter().enumerate() {
+        let c = vt * g;
+        for i in 0..3 {
+            let u = tangent.u.row(i);
+            let d = &mut z[3 * a + i];
+            for l in 0..3 {
+                d[l] = u[l] * c[l];
+            }
+            for (n, &(k, l)) in crate::material::isotropic::PAIRS.iter().enumerate() {
+                let (x, y) = (u[k] * c[l], u[l] * c[k]);
+                d[3 + n] = x + y;
+                d[6 + n] = x - y;
+            }
+            let hd = tangent.diag * Vec3::new(d[0], d[1], d[2]);
+            let e = &mut dz[3 * a + i];
+            e[..3].copy_from_slice(hd.as_slice());
+            for n in 0..3 {
+                e[3 + n] = 0.5 * tangent.pair_sym[n] * z[3 * a + i][3 + n];
+                e[6 + n] = 0.5 * tangent.pair_skew[n] * z[3 * a + i][6 + n];
+            }
+        }
+    }
+    let mut blocks = [Mat3::zeros(); 10];
+    let mut k = 0;
+    for a in 0..4 {
+        for b in a..4 {
+            blocks[k] = Mat3::from_fn(|i, j| {
+                let (p, q) = (&z[3 * a + i], &dz[3 * b + j]);
+                w * (0..9).map(|m| p[m] * q[m]).sum::<f64>()
+            });
+            k += 1;
+        }
+    }
+    blocks
+}
+
+/// Index of block (a, b), a ≤ b, in [`element_stiffness`]'s output.
+#[inline]
+pub(super) fn upper_index(a: usize, b: usize) -> usize {
+    // Rows of the upper triangle hold 4, 3, 2, 1 blocks.
+    [0, 4, 7, 9][a] + b - a
+}
+
+/// Below this J, [`von_mises`] divides by it instead of J: a crushed or inverted tet shows a
+/// large but finite stress rather than one that swamps every colour range or changes sign.
+pub const VON_MISES_MIN_J: f64 = 0.05;
+
+/// The von Mises equivalent (Pa) of the Cauchy stress σ = P·Fᵀ/J: with the deviator
+/// s = σ − tr(σ)/3·I, σ_vM = √(3/2 s:s). J is floored at [`VON_MISES_MIN_J`].
+pub fn von_mises(p: &Mat3, f: &Mat3) -> f64 {
+    let j = f.determinant().max(VON_MISES_MIN_J);
+    let sigma = p * f.transpose() / j;
+    let s = sigma - Mat3::identity() * (sigma.trace() / 3.0);
+    (1.5 * s.norm_squared()).sqrt()
+}
+
+/// The elastic forces of one tet from its stress: `H = −W·P·Bmᵀ`, columns on vertices 1–3,
+/// minus their sum on vertex 0. With `dP` in place of P it is the force differential.
+#[inline]
+pub fn tet_forces(p: &Mat3, bm: &Mat3, w: f64) -> TetVectors {
+    let h = -w * p * bm.transpose();
+    let (f1, f2, f3) = (
+        h.column(0).into_owned(),
+        h.column(1).into_owned(),
+        h.column(2).into_owned(),
+    );
+    [-(f1 + f2 + f3), f1, f2, f3]
+}
