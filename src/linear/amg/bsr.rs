@@ -9,7 +9,7 @@
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
-use crate::linear::sparse::BlockPattern;
+use crate::linear::sparse::{BlockCsr, BlockPattern};
 
 /// Rows per parallel task. Results never depend on it (rows are independent); it only sets the
 /// grain of the work split.
@@ -47,11 +47,6 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
         }
     }
 
-    /// Number of block rows.
-    pub fn rows(&self) -> usize {
-        self.pattern.rows()
-    }
-
     /// Bytes held: blocks and pattern.
     pub fn heap_bytes(&self) -> usize {
         use crate::memory::vec_bytes;
@@ -61,76 +56,6 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     /// Number of stored blocks.
     pub fn blocks(&self) -> usize {
         self.pattern.blocks()
-    }
-
-    /// Block range of row i.
-    #[inline]
-    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
-        self.pattern.row(i)
-    }
-
-    /// Index of block (i, j), if stored.
-    pub fn find(&self, i: usize, j: usize) -> Option<usize> {
-        self.pattern.find(i, j)
-    }
-
-    /// `y = M·x`.
-    pub fn multiply(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
-        debug_assert_eq!(y.len(), self.rows());
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| *yi = self.row_product(i, x));
-    }
-
-    /// `y = Mᵀ·x`, with `pattern` and `map` the transpose's pattern and, for each of its
-    /// blocks, the block of `self` it mirrors (from [`Bsr::transpose_pattern`]): the bits of
-    /// [`Bsr::multiply`] with the stored transpose, without storing it.
-    pub fn multiply_transposed(
-        &self,
-        pattern: &BlockPattern,
-        map: &[u32],
-        x: &[Vector<R>],
-        y: &mut [Vector<C>],
-    ) {
-        debug_assert_eq!(y.len(), pattern.rows());
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| {
-                let mut sum = Vector::<C>::zeros();
-                for k in pattern.row(i) {
-                    sum += self.values[map[k] as usize].transpose() * x[pattern.cols[k] as usize];
-                }
-                *yi = sum;
-            });
-    }
-
-    /// `y += M·x`.
-    pub fn multiply_add(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| *yi += self.row_product(i, x));
-    }
-
-    /// `r = b − M·x`.
-    pub fn residual(&self, b: &[Vector<R>], x: &[Vector<C>], r: &mut [Vector<R>]) {
-        r.par_iter_mut()
-            .zip(b.par_iter())
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, (ri, bi))| *ri = bi - self.row_product(i, x));
-    }
-
-    /// `(M·x)ᵢ`.
-    #[inline]
-    pub fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
-        let mut sum = Vector::<R>::zeros();
-        for k in self.row(i) {
-            sum += self.values[k] * x[self.pattern.cols[k] as usize];
-        }
-        sum
     }
 
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over row chunks.
@@ -202,9 +127,129 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     }
 }
 
+/// Read access to a matrix of R×C blocks in compressed rows: an owned [`Bsr`], or the assembled
+/// system's [`BlockCsr`] itself, which the finest level smooths with instead of a copy (see
+/// [`super::Amg::new_shared`]). The products compute each row on its own, in the pattern's order.
+pub(crate) trait BlockRows<const R: usize, const C: usize>: Sync {
+    /// Rows and sorted block columns.
+    fn pattern(&self) -> &BlockPattern;
+    /// The blocks, one per pattern entry.
+    fn values(&self) -> &[Block<R, C>];
+
+    /// Number of block rows.
+    fn rows(&self) -> usize {
+        self.pattern().rows()
+    }
+
+    /// Block range of row i.
+    #[inline]
+    fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.pattern().row(i)
+    }
+
+    /// Index of block (i, j), if stored.
+    fn find(&self, i: usize, j: usize) -> Option<usize> {
+        self.pattern().find(i, j)
+    }
+
+    /// `(M·x)ᵢ`.
+    #[inline]
+    fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
+        let (pattern, values) = (self.pattern(), self.values());
+        let mut sum = Vector::<R>::zeros();
+        for k in pattern.row(i) {
+            sum += values[k] * x[pattern.cols[k] as usize];
+        }
+        sum
+    }
+
+    /// `y = M·x`.
+    fn multiply(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
+        debug_assert_eq!(y.len(), self.rows());
+        y.par_iter_mut()
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, yi)| *yi = self.row_product(i, x));
+    }
+
+    /// `r = b − M·x`.
+    fn residual(&self, b: &[Vector<R>], x: &[Vector<C>], r: &mut [Vector<R>]) {
+        r.par_iter_mut()
+            .zip(b.par_iter())
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, (ri, bi))| *ri = bi - self.row_product(i, x));
+    }
+}
+
+impl<const R: usize, const C: usize> BlockRows<R, C> for Bsr<R, C> {
+    fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+    fn values(&self) -> &[Block<R, C>] {
+        &self.values
+    }
+}
+
+impl BlockRows<3, 3> for BlockCsr {
+    fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+    fn values(&self) -> &[Block<3, 3>] {
+        &self.values
+    }
+}
+
+/// A block stored in f32: the transfer operators T and P keep their blocks so (half the bytes;
+/// their entries are O(1) and a preconditioner needs no more digits), converted to f64 as they
+/// are read.
+pub(crate) type Block32<const R: usize, const C: usize> = SMatrix<f32, R, C>;
+
+/// `y += M·x` for M on `pattern` with f32 blocks.
+pub(crate) fn multiply_add_f32<const R: usize, const C: usize>(
+    pattern: &BlockPattern,
+    values: &[Block32<R, C>],
+    x: &[Vector<C>],
+    y: &mut [Vector<R>],
+) {
+    y.par_iter_mut()
+        .enumerate()
+        .with_min_len(ROW_CHUNK)
+        .for_each(|(i, yi)| {
+            let mut sum = Vector::<R>::zeros();
+            for k in pattern.row(i) {
+                sum += values[k].cast::<f64>() * x[pattern.cols[k] as usize];
+            }
+            *yi += sum;
+        });
+}
+
+/// `y = Mᵀ·x` for M with f32 blocks `values`, read through the transpose's pattern and map (from
+/// [`Bsr::transpose_pattern`]): the bits of a product with the stored transpose, without it.
+pub(crate) fn multiply_transposed_f32<const R: usize, const C: usize>(
+    values: &[Block32<R, C>],
+    pattern: &BlockPattern,
+    map: &[u32],
+    x: &[Vector<R>],
+    y: &mut [Vector<C>],
+) {
+    debug_assert_eq!(y.len(), pattern.rows());
+    y.par_iter_mut()
+        .enumerate()
+        .with_min_len(ROW_CHUNK)
+        .for_each(|(i, yi)| {
+            let mut sum = Vector::<C>::zeros();
+            for k in pattern.row(i) {
+                sum +=
+                    values[map[k] as usize].cast::<f64>().transpose() * x[pattern.cols[k] as usize];
+            }
+            *yi = sum;
+        });
+}
+
 /// The pattern of `a·b` (zero blocks).
 pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
-    a: &Bsr<R, K>,
+    a: &impl BlockRows<R, K>,
     b: &Bsr<K, C>,
 ) -> Bsr<R, C> {
     let mut marker = vec![u32::MAX; b.ncols];
@@ -212,7 +257,7 @@ pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
     for i in 0..a.rows() {
         let mut row = Vec::new();
         for ka in a.row(i) {
-            let k = a.pattern.cols[ka] as usize;
+            let k = a.pattern().cols[ka] as usize;
             for kb in b.row(k) {
                 let j = b.pattern.cols[kb];
                 if marker[j as usize] != i as u32 {
@@ -230,12 +275,13 @@ pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
 /// `out = a·b` on `out`'s pattern (from [`product_pattern`]). With `upper`, only the blocks with
 /// column ≥ row are computed (the others are left alone), for symmetric products.
 pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
-    a: &Bsr<R, K>,
+    a: &impl BlockRows<R, K>,
     b: &Bsr<K, C>,
     out: &mut Bsr<R, C>,
     upper: bool,
 ) {
-    product_with_into(&a.pattern, |k| a.values[k], b, out, upper);
+    let values = a.values();
+    product_with_into(a.pattern(), |k| values[k], b, out, upper);
 }
 
 /// [`product_into`] with a's blocks given by a function of their index on `a_pattern` (a
