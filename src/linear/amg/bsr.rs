@@ -60,26 +60,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
 
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over row chunks.
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Block<R, C>]) + Sync) {
-        let n = self.rows();
-        let (row_start, cols) = (&self.pattern.row_start, &self.pattern.cols);
-        let mut chunks: Vec<(usize, &mut [Block<R, C>])> =
-            Vec::with_capacity(n.div_ceil(ROW_CHUNK));
-        let mut rest: &mut [Block<R, C>] = &mut self.values;
-        for start in (0..n).step_by(ROW_CHUNK) {
-            let end = (start + ROW_CHUNK).min(n);
-            let len = (row_start[end] - row_start[start]) as usize;
-            let (head, tail) = rest.split_at_mut(len);
-            chunks.push((start, head));
-            rest = tail;
-        }
-        chunks.into_par_iter().for_each(|(start, mut values)| {
-            for i in start..(start + ROW_CHUNK).min(n) {
-                let range = row_start[i] as usize..row_start[i + 1] as usize;
-                let (row, tail) = values.split_at_mut(range.len());
-                f(i, &cols[range], row);
-                values = tail;
-            }
-        });
+        rows_mut(&self.pattern, &mut self.values, f);
     }
 
     /// The transpose's pattern (zero blocks) and, for each of its blocks, the index of the block
@@ -247,6 +228,34 @@ pub(crate) fn multiply_transposed_f32<const R: usize, const C: usize>(
         });
 }
 
+/// Run `f(i, columns of row i, entries of row i)` for every row of `pattern`, in parallel over
+/// row chunks (rows are disjoint slices of `values`).
+pub(crate) fn rows_mut<T: Send>(
+    pattern: &BlockPattern,
+    values: &mut [T],
+    f: impl Fn(usize, &[u32], &mut [T]) + Sync,
+) {
+    let n = pattern.rows();
+    let (row_start, cols) = (&pattern.row_start, &pattern.cols);
+    let mut chunks: Vec<(usize, &mut [T])> = Vec::with_capacity(n.div_ceil(ROW_CHUNK));
+    let mut rest: &mut [T] = values;
+    for start in (0..n).step_by(ROW_CHUNK) {
+        let end = (start + ROW_CHUNK).min(n);
+        let len = (row_start[end] - row_start[start]) as usize;
+        let (head, tail) = rest.split_at_mut(len);
+        chunks.push((start, head));
+        rest = tail;
+    }
+    chunks.into_par_iter().for_each(|(start, mut values)| {
+        for i in start..(start + ROW_CHUNK).min(n) {
+            let range = row_start[i] as usize..row_start[i + 1] as usize;
+            let (row, tail) = values.split_at_mut(range.len());
+            f(i, &cols[range], row);
+            values = tail;
+        }
+    });
+}
+
 /// The pattern of `a·b` (zero blocks).
 pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
     a: &impl BlockRows<R, K>,
@@ -274,6 +283,7 @@ pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
 
 /// `out = a·b` on `out`'s pattern (from [`product_pattern`]). With `upper`, only the blocks with
 /// column ≥ row are computed (the others are left alone), for symmetric products.
+#[cfg(test)]
 pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
     a: &impl BlockRows<R, K>,
     b: &Bsr<K, C>,
@@ -281,15 +291,24 @@ pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
     upper: bool,
 ) {
     let values = a.values();
-    product_with_into(a.pattern(), |k| values[k], b, out, upper);
+    product_with_into(
+        a.pattern(),
+        |k| values[k],
+        &b.pattern,
+        |k| b.values[k],
+        out,
+        upper,
+    );
 }
 
-/// [`product_into`] with a's blocks given by a function of their index on `a_pattern` (a
+/// [`product_into`] with a's and b's blocks given by functions of their index on `a_pattern` and
+/// `b_pattern` (a transpose read through its map, f32 blocks converted, say;
 /// transpose read through its map, say).
 pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
     a_pattern: &BlockPattern,
     a_block: impl Fn(usize) -> Block<R, K> + Sync,
-    b: &Bsr<K, C>,
+    b_pattern: &BlockPattern,
+    b_block: impl Fn(usize) -> Block<K, C> + Sync,
     out: &mut Bsr<R, C>,
     upper: bool,
 ) {
@@ -305,9 +324,9 @@ pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
         for ka in a_pattern.row(i) {
             let k = a_pattern.cols[ka] as usize;
             let block = a_block(ka);
-            let range = b.row(k);
+            let range = b_pattern.row(k);
             // Columns below the first wanted one are skipped without a search.
-            let bcols = &b.pattern.cols[range.clone()];
+            let bcols = &b_pattern.cols[range.clone()];
             let skip = if upper {
                 bcols.partition_point(|&j| (j as usize) < i)
             } else {
@@ -319,7 +338,7 @@ pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
                 while cols[at] != j {
                     at += 1;
                 }
-                row[at] += block * b.values[kb];
+                row[at] += block * b_block(kb);
             }
         }
     });

@@ -42,7 +42,7 @@ use std::time::Instant;
 use self::aggregate::{Aggregates, MODES, NONE, aggregate, strong_neighbours, tentative};
 use self::bsr::{
     Block, Block32, BlockRows, Bsr, Vector, mirror_lower, mirror_pairs, multiply_add_f32,
-    multiply_transposed_f32, product_into, product_pattern, product_with_into,
+    multiply_transposed_f32, product_pattern, product_with_into, rows_mut,
 };
 use self::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
 use crate::linear::cg::Preconditioner;
@@ -730,49 +730,53 @@ impl<const B: usize> Level<B> {
         let omega = params.prolongator_damping / self.bounds.1;
         let (dinv, mask, tent, t32) = (&self.dinv, &self.mask, &t.tentative, &t.t32);
         let (a_cols, a_values) = (&a.pattern().cols, a.values());
-        t.p.values = vec![Block::zeros(); t.p.blocks()];
-        t.p.for_each_row_mut(|i, cols, row| {
-            row.iter_mut().for_each(|v| *v = Block::zeros());
-            for k in a.row(i) {
-                let j = a_cols[k] as usize;
-                for kt in tent.row(j) {
-                    let at = cols
-                        .binary_search(&tent.pattern.cols[kt])
-                        .expect("P holds the pattern of A·T");
-                    row[at] += a_values[k] * t32[kt].cast::<f64>();
-                }
-            }
+        // P's rows are computed in f64 and stored rounded to f32, block by block (no f64 copy of
+        // P: it would stay in the resident set after the refresh). Each block sums A's row in
+        // order, as a product into the whole row would. The products below read the rounded
+        // blocks, so A_c is the Galerkin product of the P the cycle applies.
+        rows_mut(&t.p.pattern, &mut t.p32, |i, cols, row| {
             let scale = Block::<B, B>::from_diagonal(&mask[i]);
             let left = scale * (-omega * dinv[i]);
-            for v in row.iter_mut() {
-                *v = left * *v;
-            }
-            for kt in tent.row(i) {
-                let at = cols
-                    .binary_search(&tent.pattern.cols[kt])
-                    .expect("diagonal of T");
-                row[at] += scale * t32[kt].cast::<f64>();
+            for (out, &c) in row.iter_mut().zip(cols) {
+                let mut sum = Block::<B, MODES>::zeros();
+                for k in a.row(i) {
+                    let j = a_cols[k] as usize;
+                    for kt in tent.row(j) {
+                        if tent.pattern.cols[kt] == c {
+                            sum += a_values[k] * t32[kt].cast::<f64>();
+                        }
+                    }
+                }
+                let mut v = left * sum;
+                for kt in tent.row(i) {
+                    if tent.pattern.cols[kt] == c {
+                        v += scale * t32[kt].cast::<f64>();
+                    }
+                }
+                *out = v.cast::<f32>();
             }
         });
-        // P is kept in f32; the products below use the rounded blocks, so A_c is the Galerkin
-        // product of the P the cycle applies.
-        for (stored, v) in t.p32.iter_mut().zip(&mut t.p.values) {
-            *stored = v.cast::<f32>();
-            *v = stored.cast::<f64>();
-        }
         // A·P lives only here (it is the largest array of the set-up, larger than A).
         t.ap.values = vec![Block::zeros(); t.ap.blocks()];
-        product_into(a, &t.p, &mut t.ap, false);
-        let (p, map) = (&t.p, &t.pt_map);
+        let p32 = &t.p32;
+        product_with_into(
+            a.pattern(),
+            |k| a_values[k],
+            &t.p.pattern,
+            |k| p32[k].cast::<f64>(),
+            &mut t.ap,
+            false,
+        );
+        let (ap, map) = (&t.ap, &t.pt_map);
         product_with_into(
             &t.pt.pattern,
-            |k| p.values[map[k] as usize].transpose(),
-            &t.ap,
+            |k| p32[map[k] as usize].cast::<f64>().transpose(),
+            &ap.pattern,
+            |k| ap.values[k],
             a_c,
             true,
         );
         t.ap.values = Vec::new();
-        t.p.values = Vec::new();
         mirror_lower(a_c, &t.mirror);
         for &(g, c) in &t.dropped {
             let k = a_c.find(g as usize, g as usize).expect("diagonal");
