@@ -63,7 +63,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
         rows_mut(&self.pattern, &mut self.values, f);
     }
 
-    /// The transpose's pattern (zero blocks) and, for each of its blocks, the index of the block
+    /// The transpose's pattern (no blocks) and, for each of its blocks, the index of the block
     /// of `self` it mirrors.
     pub fn transpose_pattern(&self) -> (Bsr<C, R>, Vec<u32>) {
         let mut counts = vec![0u32; self.ncols + 1];
@@ -87,7 +87,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
             }
         }
         let t = Bsr {
-            values: vec![Block::<C, R>::zeros(); cols.len()],
+            values: Vec::new(),
             pattern: BlockPattern {
                 row_start: counts,
                 cols,
@@ -256,29 +256,38 @@ pub(crate) fn rows_mut<T: Send>(
     });
 }
 
-/// The pattern of `a·b` (zero blocks).
+/// The pattern of `a·b`, without blocks (a caller that needs them allocates them: a set-up's
+/// freed temporaries stay resident). Built in one flat array, not a list per row, for the same
+/// reason.
 pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
     a: &impl BlockRows<R, K>,
     b: &Bsr<K, C>,
 ) -> Bsr<R, C> {
     let mut marker = vec![u32::MAX; b.ncols];
-    let mut rows = Vec::with_capacity(a.rows());
+    let mut row_start = Vec::with_capacity(a.rows() + 1);
+    row_start.push(0u32);
+    let mut cols: Vec<u32> = Vec::new();
     for i in 0..a.rows() {
-        let mut row = Vec::new();
+        let begin = cols.len();
         for ka in a.row(i) {
             let k = a.pattern().cols[ka] as usize;
             for kb in b.row(k) {
                 let j = b.pattern.cols[kb];
                 if marker[j as usize] != i as u32 {
                     marker[j as usize] = i as u32;
-                    row.push(j);
+                    cols.push(j);
                 }
             }
         }
-        row.sort_unstable();
-        rows.push(row);
+        cols[begin..].sort_unstable();
+        row_start.push(cols.len() as u32);
     }
-    Bsr::from_rows(&rows, b.ncols)
+    cols.shrink_to_fit();
+    Bsr {
+        pattern: BlockPattern { row_start, cols },
+        values: Vec::new(),
+        ncols: b.ncols,
+    }
 }
 
 /// `out = a·b` on `out`'s pattern (from [`product_pattern`]). With `upper`, only the blocks with
@@ -425,13 +434,16 @@ mod tests {
         let a = sample::<3, 6>(40, 9, 1);
         let b = sample::<6, 6>(9, 7, 2);
         let mut c = product_pattern(&a, &b);
+        c.values = vec![Block::zeros(); c.blocks()];
         product_into(&a, &b, &mut c, false);
         assert!((dense(&c) - dense(&a) * dense(&b)).norm() < 1e-12);
         let (mut t, map) = a.transpose_pattern();
+        t.values = vec![Block::zeros(); t.blocks()];
         a.transpose_into(&mut t, &map);
         assert_eq!(dense(&t), dense(&a).transpose());
         // Symmetric product, upper half computed and mirrored.
         let mut s = product_pattern(&t, &a);
+        s.values = vec![Block::zeros(); s.blocks()];
         product_into(&t, &a, &mut s, true);
         let pairs = mirror_pairs(&s);
         mirror_lower(&mut s, &pairs);

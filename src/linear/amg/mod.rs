@@ -660,14 +660,12 @@ impl<const B: usize> Level<B> {
             .iter()
             .map(|b| b.cast::<f32>())
             .collect();
-        let mut p = product_pattern(a, &tentative);
+        let p = product_pattern(a, &tentative);
         let p32 = vec![Block32::zeros(); p.blocks()];
-        p.values = Vec::new();
-        let (mut pt, pt_map) = p.transpose_pattern();
-        let mut ap = product_pattern(a, &p);
-        let a_c = product_pattern(&pt, &ap);
-        pt.values = Vec::new();
-        ap.values = Vec::new();
+        let (pt, pt_map) = p.transpose_pattern();
+        let ap = product_pattern(a, &p);
+        let mut a_c = product_pattern(&pt, &ap);
+        a_c.values = vec![Block::zeros(); a_c.blocks()];
         let mirror = mirror_pairs(&a_c);
         let dropped = kept
             .iter()
@@ -695,7 +693,6 @@ impl<const B: usize> Level<B> {
             bc: vec![Vector::zeros(); nc],
             xc: vec![Vector::zeros(); nc],
         };
-        let mut a_c = a_c;
         level.galerkin(a, &mut transfer, &mut a_c, params);
         level.coarse = Coarse::Transfer(Box::new(transfer));
         (level, Some((a_c, nullspace_c, mask_c)))
