@@ -212,7 +212,7 @@ impl LinearSolver for Multigrid {
         let hierarchy = match &self.amg {
             Some(amg) => {
                 let numbers = amg.fine_numbers().unwrap_or_default();
-                Some(HierarchyState {
+                Some(Box::new(HierarchyState {
                     free: vectors_out(amg.fine_mask()),
                     aggregates: amg.aggregates(),
                     values: amg.fine_values().map(blocks_out).unwrap_or_default(),
@@ -220,7 +220,7 @@ impl LinearSolver for Multigrid {
                     bounds: numbers.bounds,
                     prolongator: numbers.prolongator,
                     second: numbers.second,
-                })
+                }))
             }
             None => None,
         };

@@ -40,7 +40,7 @@ pub struct MultigridState {
     /// The pattern of A (row starts, columns), when assembled.
     pub pattern: Option<StoredPattern>,
     /// The hierarchy, when built.
-    pub hierarchy: Option<HierarchyState>,
+    pub hierarchy: Option<Box<HierarchyState>>,
     /// CG iterations per decade of the first solve after the last build or refresh.
     pub baseline_rate: Option<f64>,
     /// CG iterations per decade of the last solve.
