@@ -404,10 +404,13 @@ impl Amg {
     pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
         let mut fine = self.fine.memory();
         fine.matrix += self.fine_a.as_ref().map_or(0, Bsr::heap_bytes);
-        inventory.add("AMG: copy of the fine A (f64) and its pattern", fine.matrix);
+        inventory.add(
+            "AMG: copy of the fine A (f64; none when shared) and its pattern",
+            fine.matrix,
+        );
         inventory.add("AMG: fine smoother and work vectors", fine.vectors);
         inventory.add(
-            "AMG: fine T and P (f64), patterns of P and Pᵀ",
+            "AMG: fine T and P (f32), patterns of P and Pᵀ",
             fine.transfer,
         );
         inventory.add(
