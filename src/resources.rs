@@ -4,9 +4,9 @@
 
 /// Resident bytes per tet of a run, measured with `/usr/bin/time -v tetsim run
 /// scenes/bench/beam_n20.toml --frames 2` (192,000 tets, the default AMG preconditioner,
-/// damping, pictures on): 418 MB peak, 2.2 KB a tet (the peak includes A·P during an AMG
-/// refresh and the pictures; `tetsim bench --sizes 36` peaks at 1.9 KB a tet); rounded up.
-pub const BYTES_PER_TET: f64 = 2300.0;
+/// damping, pictures on): 351 MB peak, 1.83 KB a tet (the peak includes A·P during an AMG
+/// refresh and the pictures; `tetsim bench --sizes 36` peaks at 1.49 KB a tet); rounded up.
+pub const BYTES_PER_TET: f64 = 2000.0;
 
 /// Memory the system can give a new allocation without swapping, bytes (Linux's MemAvailable;
 /// None where unknown, and then nothing is refused).

@@ -263,6 +263,7 @@ impl AssembledMatrix {
     }
 
     /// CG with the assembled A (f64 or its f32 upper triangle).
+    #[cfg(feature = "direct")]
     pub fn solve(
         &mut self,
         m: &mut dyn cg::Preconditioner,
@@ -272,15 +273,8 @@ impl AssembledMatrix {
         params: &CgParams,
         ws: &mut cg::CgWorkspace,
     ) -> Result<CgInfo, CgError> {
-        match (&mut self.upper, &self.a) {
-            (Some(upper), _) => {
-                cg::conjugate_gradient(&mut UpperOperator(upper), m, b, x, free, params, ws)
-            }
-            (None, Some(a)) => {
-                cg::conjugate_gradient(&mut CsrOperator(a), m, b, x, free, params, ws)
-            }
-            (None, None) => panic!("solve before prepare"),
-        }
+        let a = self.a.as_ref().expect("solve before prepare");
+        solve_assembled(a, self.upper.as_mut(), m, b, x, free, params, ws)
     }
 
     /// Its matrices, into a memory inventory.
@@ -309,6 +303,25 @@ impl AssembledMatrix {
             (None, Some(a)) => (a.pattern.blocks() * (72 + 4) + 4 * (a.rows() + 1)) as f64,
             (None, None) => 0.0,
         }
+    }
+}
+
+/// CG with the assembled A, or with its f32 upper triangle when there is one (a function of
+/// the parts, so that a preconditioner may borrow A meanwhile).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_assembled(
+    a: &BlockCsr,
+    upper: Option<&mut sparse::UpperF32>,
+    m: &mut dyn cg::Preconditioner,
+    b: &[Vec3],
+    x: &mut [Vec3],
+    free: &[Vec3],
+    params: &CgParams,
+    ws: &mut cg::CgWorkspace,
+) -> Result<CgInfo, CgError> {
+    match upper {
+        Some(upper) => cg::conjugate_gradient(&mut UpperOperator(upper), m, b, x, free, params, ws),
+        None => cg::conjugate_gradient(&mut CsrOperator(a), m, b, x, free, params, ws),
     }
 }
 

@@ -4,8 +4,12 @@
 //! A multigrid hierarchy is several times the size of A and full of derived arrays, but it is a
 //! pure function of its aggregates (found from the A it was built on) and the A of its last
 //! build or refresh (a refresh gives the bits of a fresh build on the kept aggregates: see
-//! [`super::amg`]). Those aggregates, that matrix, the mask of constrained DOFs at the build and
-//! the reuse rule's counters are what is stored; the hierarchy is rebuilt from them on resume.
+//! [`super::amg`]). The solver's hierarchy does not keep that A (its finest level smooths with
+//! the current one), so what is stored is the aggregates and the numbers a rebuild would compute
+//! from that A: the finest level's D⁻¹, Chebyshev interval and prolongator, and the second
+//! level's matrix, from which the levels below follow (a hierarchy of one level keeps its A, and
+//! that is stored instead). With the mask of constrained DOFs at the build and the reuse rule's
+//! counters, the hierarchy is rebuilt from them on resume, bit for bit.
 
 use serde::{Deserialize, Serialize};
 
@@ -36,7 +40,7 @@ pub struct MultigridState {
     /// The pattern of A (row starts, columns), when assembled.
     pub pattern: Option<StoredPattern>,
     /// The hierarchy, when built.
-    pub hierarchy: Option<HierarchyState>,
+    pub hierarchy: Option<Box<HierarchyState>>,
     /// CG iterations per decade of the first solve after the last build or refresh.
     pub baseline_rate: Option<f64>,
     /// CG iterations per decade of the last solve.
@@ -55,8 +59,20 @@ pub struct HierarchyState {
     /// Each level's aggregates, finest first: the aggregate of each row (`u32::MAX`: none) and
     /// the number of aggregates.
     pub aggregates: Vec<(Vec<u32>, usize)>,
-    /// A's blocks at the last build or refresh (column-major 3×3).
+    /// A's blocks at the last build or refresh (column-major 3×3), for a hierarchy of one level
+    /// (which keeps them); empty otherwise.
     pub values: Vec<[f64; 9]>,
+    /// A hierarchy of several levels: the finest level's D⁻¹ blocks (column-major 3×3), its
+    /// Chebyshev interval, its prolongator blocks (18 numbers each) and the second level's
+    /// matrix blocks (36 numbers each), all as of the last build or refresh (see
+    /// [`crate::linear::amg::FineNumbers`]).
+    pub dinv: Vec<[f64; 9]>,
+    /// See [`HierarchyState::dinv`].
+    pub bounds: (f64, f64),
+    /// See [`HierarchyState::dinv`].
+    pub prolongator: Vec<f64>,
+    /// See [`HierarchyState::dinv`].
+    pub second: Vec<f64>,
 }
 
 /// Blocks as plain arrays (column-major), bit for bit.
@@ -88,14 +104,8 @@ pub(crate) fn matrix_in(
     blocks: &[[f64; 9]],
     rows: usize,
 ) -> Result<BlockCsr, String> {
-    let pattern = BlockPattern {
-        row_start: pattern.0.clone(),
-        cols: pattern.1.clone(),
-    };
-    if pattern.row_start.len() != rows + 1
-        || pattern.row_start.last().copied() != Some(pattern.cols.len() as u32)
-        || blocks.len() != pattern.cols.len()
-    {
+    let pattern = pattern_in(pattern, rows)?;
+    if blocks.len() != pattern.cols.len() {
         return Err(format!(
             "the stored solver matrix does not fit a system of {rows} vertices"
         ));
@@ -104,4 +114,22 @@ pub(crate) fn matrix_in(
         pattern,
         values: blocks_in(blocks),
     })
+}
+
+/// A stored pattern, checked for consistency.
+pub(crate) fn pattern_in(pattern: &StoredPattern, rows: usize) -> Result<BlockPattern, String> {
+    let pattern = BlockPattern {
+        row_start: pattern.0.clone(),
+        cols: pattern.1.clone(),
+    };
+    if pattern.row_start.len() != rows + 1
+        || pattern.row_start.last().copied() != Some(pattern.cols.len() as u32)
+        || pattern.row_start.windows(2).any(|w| w[0] > w[1])
+        || pattern.cols.iter().any(|&c| c as usize >= rows)
+    {
+        return Err(format!(
+            "the stored solver matrix does not fit a system of {rows} vertices"
+        ));
+    }
+    Ok(pattern)
 }

@@ -4,7 +4,7 @@
 
 use nalgebra::DMatrix;
 
-use super::bsr::{Block, Bsr};
+use super::bsr::{Block, BlockRows, Bsr};
 
 /// Coarse DOFs per aggregate: the six rigid-body modes.
 pub(crate) const MODES: usize = 6;
@@ -23,17 +23,20 @@ pub(crate) struct Aggregates {
 
 /// The strong neighbours of every node: j ≠ i with `‖A_ij‖_F > θ·√(‖A_ii‖_F·‖A_jj‖_F)` and
 /// `A_ij ≠ 0` (a symmetric test, so the graph is undirected).
-pub(crate) fn strong_neighbours<const B: usize>(a: &Bsr<B, B>, theta: f64) -> Vec<Vec<u32>> {
+pub(crate) fn strong_neighbours<const B: usize>(
+    a: &impl BlockRows<B, B>,
+    theta: f64,
+) -> Vec<Vec<u32>> {
     let n = a.rows();
     let diagonal: Vec<f64> = (0..n)
-        .map(|i| a.find(i, i).map_or(0.0, |k| a.values[k].norm()))
+        .map(|i| a.find(i, i).map_or(0.0, |k| a.values()[k].norm()))
         .collect();
     (0..n)
         .map(|i| {
             a.row(i)
                 .filter_map(|k| {
-                    let j = a.pattern.cols[k] as usize;
-                    let norm = a.values[k].norm();
+                    let j = a.pattern().cols[k] as usize;
+                    let norm = a.values()[k].norm();
                     let strong =
                         j != i && norm > 0.0 && norm > theta * (diagonal[i] * diagonal[j]).sqrt();
                     strong.then_some(j as u32)

@@ -9,7 +9,7 @@
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
-use crate::linear::sparse::BlockPattern;
+use crate::linear::sparse::{BlockCsr, BlockPattern};
 
 /// Rows per parallel task. Results never depend on it (rows are independent); it only sets the
 /// grain of the work split.
@@ -47,11 +47,6 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
         }
     }
 
-    /// Number of block rows.
-    pub fn rows(&self) -> usize {
-        self.pattern.rows()
-    }
-
     /// Bytes held: blocks and pattern.
     pub fn heap_bytes(&self) -> usize {
         use crate::memory::vec_bytes;
@@ -63,101 +58,12 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
         self.pattern.blocks()
     }
 
-    /// Block range of row i.
-    #[inline]
-    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
-        self.pattern.row(i)
-    }
-
-    /// Index of block (i, j), if stored.
-    pub fn find(&self, i: usize, j: usize) -> Option<usize> {
-        self.pattern.find(i, j)
-    }
-
-    /// `y = M·x`.
-    pub fn multiply(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
-        debug_assert_eq!(y.len(), self.rows());
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| *yi = self.row_product(i, x));
-    }
-
-    /// `y = Mᵀ·x`, with `pattern` and `map` the transpose's pattern and, for each of its
-    /// blocks, the block of `self` it mirrors (from [`Bsr::transpose_pattern`]): the bits of
-    /// [`Bsr::multiply`] with the stored transpose, without storing it.
-    pub fn multiply_transposed(
-        &self,
-        pattern: &BlockPattern,
-        map: &[u32],
-        x: &[Vector<R>],
-        y: &mut [Vector<C>],
-    ) {
-        debug_assert_eq!(y.len(), pattern.rows());
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| {
-                let mut sum = Vector::<C>::zeros();
-                for k in pattern.row(i) {
-                    sum += self.values[map[k] as usize].transpose() * x[pattern.cols[k] as usize];
-                }
-                *yi = sum;
-            });
-    }
-
-    /// `y += M·x`.
-    pub fn multiply_add(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| *yi += self.row_product(i, x));
-    }
-
-    /// `r = b − M·x`.
-    pub fn residual(&self, b: &[Vector<R>], x: &[Vector<C>], r: &mut [Vector<R>]) {
-        r.par_iter_mut()
-            .zip(b.par_iter())
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, (ri, bi))| *ri = bi - self.row_product(i, x));
-    }
-
-    /// `(M·x)ᵢ`.
-    #[inline]
-    pub fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
-        let mut sum = Vector::<R>::zeros();
-        for k in self.row(i) {
-            sum += self.values[k] * x[self.pattern.cols[k] as usize];
-        }
-        sum
-    }
-
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over row chunks.
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Block<R, C>]) + Sync) {
-        let n = self.rows();
-        let (row_start, cols) = (&self.pattern.row_start, &self.pattern.cols);
-        let mut chunks: Vec<(usize, &mut [Block<R, C>])> =
-            Vec::with_capacity(n.div_ceil(ROW_CHUNK));
-        let mut rest: &mut [Block<R, C>] = &mut self.values;
-        for start in (0..n).step_by(ROW_CHUNK) {
-            let end = (start + ROW_CHUNK).min(n);
-            let len = (row_start[end] - row_start[start]) as usize;
-            let (head, tail) = rest.split_at_mut(len);
-            chunks.push((start, head));
-            rest = tail;
-        }
-        chunks.into_par_iter().for_each(|(start, mut values)| {
-            for i in start..(start + ROW_CHUNK).min(n) {
-                let range = row_start[i] as usize..row_start[i + 1] as usize;
-                let (row, tail) = values.split_at_mut(range.len());
-                f(i, &cols[range], row);
-                values = tail;
-            }
-        });
+        rows_mut(&self.pattern, &mut self.values, f);
     }
 
-    /// The transpose's pattern (zero blocks) and, for each of its blocks, the index of the block
+    /// The transpose's pattern (no blocks) and, for each of its blocks, the index of the block
     /// of `self` it mirrors.
     pub fn transpose_pattern(&self) -> (Bsr<C, R>, Vec<u32>) {
         let mut counts = vec![0u32; self.ncols + 1];
@@ -181,7 +87,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
             }
         }
         let t = Bsr {
-            values: vec![Block::<C, R>::zeros(); cols.len()],
+            values: Vec::new(),
             pattern: BlockPattern {
                 row_start: counts,
                 cols,
@@ -202,48 +108,216 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
     }
 }
 
-/// The pattern of `a·b` (zero blocks).
+/// Read access to a matrix of R×C blocks in compressed rows: an owned [`Bsr`], or the assembled
+/// system's [`BlockCsr`] itself, which the finest level smooths with instead of a copy (see
+/// [`super::Amg::new_shared`]). The products compute each row on its own, in the pattern's order.
+pub(crate) trait BlockRows<const R: usize, const C: usize>: Sync {
+    /// Rows and sorted block columns.
+    fn pattern(&self) -> &BlockPattern;
+    /// The blocks, one per pattern entry.
+    fn values(&self) -> &[Block<R, C>];
+
+    /// Number of block rows.
+    fn rows(&self) -> usize {
+        self.pattern().rows()
+    }
+
+    /// Block range of row i.
+    #[inline]
+    fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.pattern().row(i)
+    }
+
+    /// Index of block (i, j), if stored.
+    fn find(&self, i: usize, j: usize) -> Option<usize> {
+        self.pattern().find(i, j)
+    }
+
+    /// `(M·x)ᵢ`.
+    #[inline]
+    fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
+        let (pattern, values) = (self.pattern(), self.values());
+        let mut sum = Vector::<R>::zeros();
+        for k in pattern.row(i) {
+            sum += values[k] * x[pattern.cols[k] as usize];
+        }
+        sum
+    }
+
+    /// `y = M·x`.
+    fn multiply(&self, x: &[Vector<C>], y: &mut [Vector<R>]) {
+        debug_assert_eq!(y.len(), self.rows());
+        y.par_iter_mut()
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, yi)| *yi = self.row_product(i, x));
+    }
+
+    /// `r = b − M·x`.
+    fn residual(&self, b: &[Vector<R>], x: &[Vector<C>], r: &mut [Vector<R>]) {
+        r.par_iter_mut()
+            .zip(b.par_iter())
+            .enumerate()
+            .with_min_len(ROW_CHUNK)
+            .for_each(|(i, (ri, bi))| *ri = bi - self.row_product(i, x));
+    }
+}
+
+impl<const R: usize, const C: usize> BlockRows<R, C> for Bsr<R, C> {
+    fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+    fn values(&self) -> &[Block<R, C>] {
+        &self.values
+    }
+}
+
+impl BlockRows<3, 3> for BlockCsr {
+    fn pattern(&self) -> &BlockPattern {
+        &self.pattern
+    }
+    fn values(&self) -> &[Block<3, 3>] {
+        &self.values
+    }
+}
+
+/// A block stored in f32: the transfer operators T and P keep their blocks so (half the bytes;
+/// their entries are O(1) and a preconditioner needs no more digits), converted to f64 as they
+/// are read.
+pub(crate) type Block32<const R: usize, const C: usize> = SMatrix<f32, R, C>;
+
+/// `y += M·x` for M on `pattern` with f32 blocks.
+pub(crate) fn multiply_add_f32<const R: usize, const C: usize>(
+    pattern: &BlockPattern,
+    values: &[Block32<R, C>],
+    x: &[Vector<C>],
+    y: &mut [Vector<R>],
+) {
+    y.par_iter_mut()
+        .enumerate()
+        .with_min_len(ROW_CHUNK)
+        .for_each(|(i, yi)| {
+            let mut sum = Vector::<R>::zeros();
+            for k in pattern.row(i) {
+                sum += values[k].cast::<f64>() * x[pattern.cols[k] as usize];
+            }
+            *yi += sum;
+        });
+}
+
+/// `y = Mᵀ·x` for M with f32 blocks `values`, read through the transpose's pattern and map (from
+/// [`Bsr::transpose_pattern`]): the bits of a product with the stored transpose, without it.
+pub(crate) fn multiply_transposed_f32<const R: usize, const C: usize>(
+    values: &[Block32<R, C>],
+    pattern: &BlockPattern,
+    map: &[u32],
+    x: &[Vector<R>],
+    y: &mut [Vector<C>],
+) {
+    debug_assert_eq!(y.len(), pattern.rows());
+    y.par_iter_mut()
+        .enumerate()
+        .with_min_len(ROW_CHUNK)
+        .for_each(|(i, yi)| {
+            let mut sum = Vector::<C>::zeros();
+            for k in pattern.row(i) {
+                sum +=
+                    values[map[k] as usize].cast::<f64>().transpose() * x[pattern.cols[k] as usize];
+            }
+            *yi = sum;
+        });
+}
+
+/// Run `f(i, columns of row i, entries of row i)` for every row of `pattern`, in parallel over
+/// row chunks (rows are disjoint slices of `values`).
+pub(crate) fn rows_mut<T: Send>(
+    pattern: &BlockPattern,
+    values: &mut [T],
+    f: impl Fn(usize, &[u32], &mut [T]) + Sync,
+) {
+    let n = pattern.rows();
+    let (row_start, cols) = (&pattern.row_start, &pattern.cols);
+    let mut chunks: Vec<(usize, &mut [T])> = Vec::with_capacity(n.div_ceil(ROW_CHUNK));
+    let mut rest: &mut [T] = values;
+    for start in (0..n).step_by(ROW_CHUNK) {
+        let end = (start + ROW_CHUNK).min(n);
+        let len = (row_start[end] - row_start[start]) as usize;
+        let (head, tail) = rest.split_at_mut(len);
+        chunks.push((start, head));
+        rest = tail;
+    }
+    chunks.into_par_iter().for_each(|(start, mut values)| {
+        for i in start..(start + ROW_CHUNK).min(n) {
+            let range = row_start[i] as usize..row_start[i + 1] as usize;
+            let (row, tail) = values.split_at_mut(range.len());
+            f(i, &cols[range], row);
+            values = tail;
+        }
+    });
+}
+
+/// The pattern of `a·b`, without blocks (a caller that needs them allocates them: a set-up's
+/// freed temporaries stay resident). Built in one flat array, not a list per row, for the same
+/// reason.
 pub(crate) fn product_pattern<const R: usize, const K: usize, const C: usize>(
-    a: &Bsr<R, K>,
+    a: &impl BlockRows<R, K>,
     b: &Bsr<K, C>,
 ) -> Bsr<R, C> {
     let mut marker = vec![u32::MAX; b.ncols];
-    let mut rows = Vec::with_capacity(a.rows());
+    let mut row_start = Vec::with_capacity(a.rows() + 1);
+    row_start.push(0u32);
+    let mut cols: Vec<u32> = Vec::new();
     for i in 0..a.rows() {
-        let mut row = Vec::new();
+        let begin = cols.len();
         for ka in a.row(i) {
-            let k = a.pattern.cols[ka] as usize;
+            let k = a.pattern().cols[ka] as usize;
             for kb in b.row(k) {
                 let j = b.pattern.cols[kb];
                 if marker[j as usize] != i as u32 {
                     marker[j as usize] = i as u32;
-                    row.push(j);
+                    cols.push(j);
                 }
             }
         }
-        row.sort_unstable();
-        rows.push(row);
+        cols[begin..].sort_unstable();
+        row_start.push(cols.len() as u32);
     }
-    Bsr::from_rows(&rows, b.ncols)
+    cols.shrink_to_fit();
+    Bsr {
+        pattern: BlockPattern { row_start, cols },
+        values: Vec::new(),
+        ncols: b.ncols,
+    }
 }
 
 /// `out = a·b` on `out`'s pattern (from [`product_pattern`]). With `upper`, only the blocks with
 /// column ≥ row are computed (the others are left alone), for symmetric products.
+#[cfg(test)]
 pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
-    a: &Bsr<R, K>,
+    a: &impl BlockRows<R, K>,
     b: &Bsr<K, C>,
     out: &mut Bsr<R, C>,
     upper: bool,
 ) {
-    product_with_into(&a.pattern, |k| a.values[k], b, out, upper);
+    let values = a.values();
+    product_with_into(
+        a.pattern(),
+        |k| values[k],
+        &b.pattern,
+        |k| b.values[k],
+        out,
+        upper,
+    );
 }
 
-/// [`product_into`] with a's blocks given by a function of their index on `a_pattern` (a
+/// [`product_into`] with a's and b's blocks given by functions of their index on `a_pattern` and
+/// `b_pattern` (a transpose read through its map, f32 blocks converted, say;
 /// transpose read through its map, say).
 pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
     a_pattern: &BlockPattern,
     a_block: impl Fn(usize) -> Block<R, K> + Sync,
-    b: &Bsr<K, C>,
+    b_pattern: &BlockPattern,
+    b_block: impl Fn(usize) -> Block<K, C> + Sync,
     out: &mut Bsr<R, C>,
     upper: bool,
 ) {
@@ -259,9 +333,9 @@ pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
         for ka in a_pattern.row(i) {
             let k = a_pattern.cols[ka] as usize;
             let block = a_block(ka);
-            let range = b.row(k);
+            let range = b_pattern.row(k);
             // Columns below the first wanted one are skipped without a search.
-            let bcols = &b.pattern.cols[range.clone()];
+            let bcols = &b_pattern.cols[range.clone()];
             let skip = if upper {
                 bcols.partition_point(|&j| (j as usize) < i)
             } else {
@@ -273,7 +347,7 @@ pub(crate) fn product_with_into<const R: usize, const K: usize, const C: usize>(
                 while cols[at] != j {
                     at += 1;
                 }
-                row[at] += block * b.values[kb];
+                row[at] += block * b_block(kb);
             }
         }
     });
@@ -360,13 +434,16 @@ mod tests {
         let a = sample::<3, 6>(40, 9, 1);
         let b = sample::<6, 6>(9, 7, 2);
         let mut c = product_pattern(&a, &b);
+        c.values = vec![Block::zeros(); c.blocks()];
         product_into(&a, &b, &mut c, false);
         assert!((dense(&c) - dense(&a) * dense(&b)).norm() < 1e-12);
         let (mut t, map) = a.transpose_pattern();
+        t.values = vec![Block::zeros(); t.blocks()];
         a.transpose_into(&mut t, &map);
         assert_eq!(dense(&t), dense(&a).transpose());
         // Symmetric product, upper half computed and mirrored.
         let mut s = product_pattern(&t, &a);
+        s.values = vec![Block::zeros(); s.blocks()];
         product_into(&t, &a, &mut s, true);
         let pairs = mirror_pairs(&s);
         mirror_lower(&mut s, &pairs);

@@ -18,6 +18,17 @@
 //! aggregates, T and every sparsity pattern and recomputes the numbers: D⁻¹, the spectral bounds,
 //! P, Pᵀ, A·P and Pᵀ·A·P, and the coarse factor.
 //!
+//! **The finest A.** A hierarchy made by [`Amg::new`] keeps a copy of the A of its last build or
+//! refresh and smooths with it. One made by [`Amg::new_shared`] (the solver's) keeps none: its
+//! finest level smooths and forms residuals with the A it is handed at each application
+//! ([`Amg::with_matrix`], the CG's current A), while D⁻¹, the Chebyshev interval, P and the coarse
+//! levels stay those of the last build or refresh. That saves a copy of A (about 200 bytes per
+//! tet), and the V-cycle stays symmetric positive definite while the current A's spectrum under
+//! D⁻¹ stays below the bound (the refresh rule renews both when CG slows down). A checkpoint
+//! then stores those numbers instead of the A they came from ([`Amg::fine_numbers`],
+//! [`Amg::restored`]). A hierarchy of one level (a small mesh solved by the dense factor) keeps
+//! its copy: it is small, and the factor is a function of it.
+//!
 //! **Determinism.** Aggregation is sequential; every parallel kernel computes rows independently
 //! and reductions sum fixed chunks in order: the same bits for any thread count. `apply`
 //! allocates nothing (every level holds its work vectors).
@@ -30,13 +41,13 @@ use std::time::Instant;
 
 use self::aggregate::{Aggregates, MODES, NONE, aggregate, strong_neighbours, tentative};
 use self::bsr::{
-    Block, Bsr, Vector, mirror_lower, mirror_pairs, product_into, product_pattern,
-    product_with_into,
+    Block, Block32, BlockRows, Bsr, Vector, mirror_lower, mirror_pairs, multiply_add_f32,
+    multiply_transposed_f32, product_pattern, product_with_into, rows_mut,
 };
 use self::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
 use crate::linear::cg::Preconditioner;
-use crate::linear::sparse::BlockCsr;
-use crate::math::Vec3;
+use crate::linear::sparse::{BlockCsr, BlockPattern};
+use crate::math::{Mat3, Vec3};
 
 /// Largest coarsest level (DOFs) factored densely when coarsening stalls above
 /// `max_coarse_dofs`; beyond it the coarsest level is only smoothed.
@@ -119,9 +130,43 @@ pub struct AmgInfo {
 #[derive(Clone, Debug)]
 pub struct Amg {
     params: AmgParams,
+    /// The A the finest level smooths with, as of the last build or refresh; None when the
+    /// hierarchy uses the caller's current A instead (see the module docs).
+    fine_a: Option<Bsr<3, 3>>,
     fine: Level<3>,
-    coarse: Vec<Level<6>>,
+    coarse: Vec<CoarseLevel>,
     info: AmgInfo,
+}
+
+/// A level below the finest: its matrix (a Galerkin product, the hierarchy's own) and the rest.
+#[derive(Clone, Debug)]
+struct CoarseLevel {
+    a: Bsr<6, 6>,
+    level: Level<6>,
+}
+
+/// The numbers of a shared hierarchy's finest level that a rebuild on its aggregates could only
+/// recompute from the A of its last build or refresh, which it does not keep: with them (and the
+/// aggregates) [`Amg::restored`] gives the same bits. What a checkpoint stores.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FineNumbers {
+    /// D⁻¹ of the finest level, one 3×3 block per vertex.
+    pub dinv: Vec<Mat3>,
+    /// The finest level's Chebyshev interval.
+    pub bounds: (f64, f64),
+    /// The finest level's prolongator blocks (3×6, column-major, 18 numbers each).
+    pub prolongator: Vec<f64>,
+    /// The second level's matrix blocks (6×6, column-major, 36 numbers each).
+    pub second: Vec<f64>,
+}
+
+/// The arguments every build takes.
+struct BuildInput<'a> {
+    positions: &'a [Vec3],
+    free: &'a [Vec3],
+    params: &'a AmgParams,
+    given: Option<&'a [Aggregates]>,
+    shared: bool,
 }
 
 impl Amg {
@@ -129,14 +174,39 @@ impl Amg {
     /// of the vertices at `positions` as near-nullspace; `free` is the 0/1 mask per vertex and
     /// component (constrained components carry no mode).
     pub fn new(a: &BlockCsr, positions: &[Vec3], free: &[Vec3], params: &AmgParams) -> Amg {
-        Self::build(a, positions, free, params, None)
+        Self::build(
+            a,
+            BuildInput {
+                positions,
+                free,
+                params,
+                given: None,
+                shared: false,
+            },
+        )
     }
 
-    /// The hierarchy [`Amg::new`] builds, on given aggregates (those of
+    /// [`Amg::new`] without a copy of the finest A: it is applied through
+    /// [`Amg::with_matrix`] with the current A (see the module docs). A hierarchy of one level
+    /// keeps its copy all the same.
+    pub fn new_shared(a: &BlockCsr, positions: &[Vec3], free: &[Vec3], params: &AmgParams) -> Amg {
+        Self::build(
+            a,
+            BuildInput {
+                positions,
+                free,
+                params,
+                given: None,
+                shared: true,
+            },
+        )
+    }
+
+    /// The hierarchy [`Amg::new_shared`] builds, on given aggregates (those of
     /// [`Amg::aggregates`], one list per level above the coarsest) instead of aggregates found
     /// from `a`: the same bits as a build on the matrix those aggregates came from followed by a
-    /// refresh with `a`. What a checkpoint restores (see [`crate::linear::state`]). None when
-    /// the aggregates do not fit `a`.
+    /// refresh with `a`. What a checkpoint restores for a hierarchy of one level (see
+    /// [`crate::linear::state`]). None when the aggregates do not fit `a`.
     pub fn with_aggregates(
         a: &BlockCsr,
         positions: &[Vec3],
@@ -144,23 +214,113 @@ impl Amg {
         params: &AmgParams,
         aggregates: &[(Vec<u32>, usize)],
     ) -> Option<Amg> {
-        // Each level's aggregates must number that level's rows, and the next level has
-        // as many rows as this one has aggregates.
-        let mut rows = a.rows();
-        for (of, count) in aggregates {
-            if of.len() != rows || of.iter().any(|&g| g != NONE && g as usize >= *count) {
-                return None;
-            }
-            rows = *count;
+        let given = given_aggregates(a.rows(), aggregates)?;
+        Some(Self::build(
+            a,
+            BuildInput {
+                positions,
+                free,
+                params,
+                given: Some(&given),
+                shared: true,
+            },
+        ))
+    }
+
+    /// A shared hierarchy (see [`Amg::new_shared`]) on `pattern` as it was when
+    /// [`Amg::aggregates`] and [`Amg::fine_numbers`] were read off it: the same bits. None when
+    /// they do not fit the pattern (or describe a hierarchy of one level, which
+    /// [`Amg::with_aggregates`] restores).
+    pub fn restored(
+        pattern: &BlockPattern,
+        positions: &[Vec3],
+        free: &[Vec3],
+        params: &AmgParams,
+        aggregates: &[(Vec<u32>, usize)],
+        numbers: &FineNumbers,
+    ) -> Option<Amg> {
+        let n = pattern.rows();
+        let given = given_aggregates(n, aggregates)?;
+        if given.is_empty() || numbers.dinv.len() != n {
+            return None;
         }
-        let given: Vec<Aggregates> = aggregates
-            .iter()
-            .map(|(of, count)| Aggregates {
-                of: of.clone(),
-                count: *count,
-            })
-            .collect();
-        Some(Self::build(a, positions, free, params, Some(&given)))
+        // The structure (T, the patterns, the coarse levels' shapes) depends on the pattern and
+        // the aggregates only: build it on a stand-in A (identity blocks on the diagonal), then
+        // put the stored numbers in and recompute the levels below from the second one's A, as
+        // the refresh that made them did.
+        let mut stand_in = BlockCsr::zeros(pattern.clone());
+        stand_in.add_diagonal(&vec![1.0; n]);
+        let mut amg = Self::build(
+            &stand_in,
+            BuildInput {
+                positions,
+                free,
+                params,
+                given: Some(&given),
+                shared: true,
+            },
+        );
+        let Coarse::Transfer(t) = &mut amg.fine.coarse else {
+            return None;
+        };
+        let second = amg.coarse.first_mut()?;
+        if numbers.prolongator.len() != 18 * t.p32.len()
+            || numbers.second.len() != 36 * second.a.values.len()
+        {
+            return None;
+        }
+        amg.fine.dinv.clone_from(&numbers.dinv);
+        amg.fine.bounds = numbers.bounds;
+        for (block, stored) in t.p32.iter_mut().zip(numbers.prolongator.chunks(18)) {
+            *block = Block::<3, MODES>::from_column_slice(stored).cast::<f32>();
+        }
+        for (block, stored) in second.a.values.iter_mut().zip(numbers.second.chunks(36)) {
+            *block = Block::from_column_slice(stored);
+        }
+        let (second, below) = amg.coarse.split_first_mut().expect("checked above");
+        second.level.refresh(&second.a, params, below);
+        let setup = amg.info.setup_seconds;
+        amg.info = amg.describe();
+        amg.info.setup_seconds = setup;
+        Some(amg)
+    }
+
+    /// What [`Amg::restored`] needs beside the aggregates; None for a hierarchy that keeps its
+    /// finest A (one level, or made by [`Amg::new`]: [`Amg::fine_values`] then).
+    pub fn fine_numbers(&self) -> Option<FineNumbers> {
+        let Coarse::Transfer(t) = &self.fine.coarse else {
+            return None;
+        };
+        if self.fine_a.is_some() {
+            return None;
+        }
+        let second = self.coarse.first()?;
+        Some(FineNumbers {
+            dinv: self.fine.dinv.clone(),
+            bounds: self.fine.bounds,
+            prolongator: t
+                .p32
+                .iter()
+                .flat_map(|b| b.iter().map(|&x| x as f64))
+                .collect(),
+            second: second
+                .a
+                .values
+                .iter()
+                .flat_map(|b| b.iter().copied())
+                .collect(),
+        })
+    }
+
+    /// The 0/1 mask of free DOFs the hierarchy was built with (a checkpoint stores it).
+    pub fn fine_mask(&self) -> &[Vec3] {
+        &self.fine.mask
+    }
+
+    /// This hierarchy as a preconditioner whose finest level smooths with `a` (the current A),
+    /// unless it keeps its own copy (see the module docs).
+    pub fn with_matrix<'a>(&'a mut self, a: &'a BlockCsr) -> WithMatrix<'a> {
+        WithMatrix { amg: self, a }
     }
 
     /// Each level's aggregates (finest first; the coarsest level has none): the aggregate of
@@ -172,39 +332,41 @@ impl Amg {
             out.push(t.aggregates());
         }
         for level in &self.coarse {
-            if let Coarse::Transfer(t) = &level.coarse {
+            if let Coarse::Transfer(t) = &level.level.coarse {
                 out.push(t.aggregates());
             }
         }
         out
     }
 
-    fn build(
-        a: &BlockCsr,
-        positions: &[Vec3],
-        free: &[Vec3],
-        params: &AmgParams,
-        given: Option<&[Aggregates]>,
-    ) -> Amg {
+    fn build(a: &BlockCsr, input: BuildInput<'_>) -> Amg {
         let started = Instant::now();
+        let BuildInput {
+            positions,
+            free,
+            params,
+            given,
+            shared,
+        } = input;
         let n = a.rows();
         assert!(positions.len() == n && free.len() == n);
-        let fine_a = Bsr::<3, 3> {
+        let nullspace = rigid_modes(positions, free);
+        let (fine, mut next) = Level::build(a, &nullspace, free.to_vec(), params, 0, given);
+        let fine_a = (!shared || !matches!(fine.coarse, Coarse::Transfer(_))).then(|| Bsr {
             pattern: a.pattern.clone(),
             values: a.values.clone(),
             ncols: n,
-        };
-        let nullspace = rigid_modes(positions, free);
-        let (fine, mut next) = Level::build(fine_a, &nullspace, free.to_vec(), params, 0, given);
-        let mut coarse: Vec<Level<6>> = Vec::new();
+        });
+        let mut coarse: Vec<CoarseLevel> = Vec::new();
         while let Some((a_c, nullspace_c, mask_c)) = next {
             let depth = coarse.len() + 1;
-            let (level, more) = Level::build(a_c, &nullspace_c, mask_c, params, depth, given);
-            coarse.push(level);
+            let (level, more) = Level::build(&a_c, &nullspace_c, mask_c, params, depth, given);
+            coarse.push(CoarseLevel { a: a_c, level });
             next = more;
         }
         let mut amg = Amg {
             params: params.clone(),
+            fine_a,
             fine,
             coarse,
             info: AmgInfo::default(),
@@ -218,28 +380,37 @@ impl Amg {
     /// constrained DOFs): the aggregates, T and the patterns are kept.
     pub fn refresh(&mut self, a: &BlockCsr) {
         let started = Instant::now();
-        assert_eq!(a.values.len(), self.fine.a.values.len(), "same pattern");
-        self.fine.a.values.copy_from_slice(&a.values);
-        self.fine.refresh(&self.params, &mut self.coarse);
+        assert_eq!(a.values.len(), self.fine.blocks, "same pattern");
+        match &mut self.fine_a {
+            Some(own) => {
+                own.values.copy_from_slice(&a.values);
+                self.fine.refresh(own, &self.params, &mut self.coarse);
+            }
+            None => self.fine.refresh(a, &self.params, &mut self.coarse),
+        }
         let setup = self.info.setup_seconds;
         self.info = self.describe();
         self.info.setup_seconds = setup;
         self.info.refresh_seconds = started.elapsed().as_secs_f64();
     }
 
-    /// The fine matrix's blocks the hierarchy's numbers were last computed from (a checkpoint
-    /// stores them: see [`crate::linear::state`]).
-    pub fn fine_values(&self) -> &[crate::math::Mat3] {
-        &self.fine.a.values
+    /// The fine matrix's blocks the hierarchy's numbers were last computed from, when it keeps
+    /// them (a checkpoint stores them: see [`crate::linear::state`]).
+    pub fn fine_values(&self) -> Option<&[Mat3]> {
+        self.fine_a.as_ref().map(|a| a.values.as_slice())
     }
 
     /// The hierarchy's arrays by kind, into a memory inventory.
     pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
-        let fine = self.fine.memory();
-        inventory.add("AMG: copy of the fine A (f64) and its pattern", fine.matrix);
+        let mut fine = self.fine.memory();
+        fine.matrix += self.fine_a.as_ref().map_or(0, Bsr::heap_bytes);
+        inventory.add(
+            "AMG: copy of the fine A (f64; none when shared) and its pattern",
+            fine.matrix,
+        );
         inventory.add("AMG: fine smoother and work vectors", fine.vectors);
         inventory.add(
-            "AMG: fine T and P (f64), patterns of P and Pᵀ",
+            "AMG: fine T and P (f32), patterns of P and Pᵀ",
             fine.transfer,
         );
         inventory.add(
@@ -247,7 +418,8 @@ impl Amg {
             fine.product,
         );
         let coarse = self.coarse.iter().fold(LevelMemory::default(), |s, l| {
-            let m = l.memory();
+            let mut m = l.level.memory();
+            m.matrix += l.a.heap_bytes();
             LevelMemory {
                 matrix: s.matrix + m.matrix,
                 vectors: s.vectors + m.vectors,
@@ -268,10 +440,10 @@ impl Amg {
 
     fn describe(&self) -> AmgInfo {
         let mut levels = vec![self.fine.describe()];
-        levels.extend(self.coarse.iter().map(Level::describe));
+        levels.extend(self.coarse.iter().map(|l| l.level.describe()));
         let total: usize = levels.iter().map(|l| l.nonzeros).sum();
         let coarsest_direct = match self.coarse.last() {
-            Some(level) => level.is_direct(),
+            Some(level) => level.level.is_direct(),
             None => self.fine.is_direct(),
         };
         AmgInfo {
@@ -285,10 +457,53 @@ impl Amg {
 }
 
 impl Preconditioner for Amg {
+    /// One V-cycle from z = 0: `z ≈ A⁻¹·r`, with the hierarchy's own finest A (a shared
+    /// hierarchy is applied through [`Amg::with_matrix`]).
+    fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]) {
+        let a = self
+            .fine_a
+            .as_ref()
+            .expect("a shared hierarchy is applied with_matrix");
+        self.fine.cycle(a, r, z, &mut self.coarse);
+    }
+}
+
+/// A hierarchy and the current A its finest level smooths with (see [`Amg::with_matrix`]).
+pub struct WithMatrix<'a> {
+    amg: &'a mut Amg,
+    a: &'a BlockCsr,
+}
+
+impl Preconditioner for WithMatrix<'_> {
     /// One V-cycle from z = 0: `z ≈ A⁻¹·r`.
     fn apply(&mut self, r: &[Vec3], z: &mut [Vec3]) {
-        self.fine.cycle(r, z, &mut self.coarse);
+        let amg = &mut *self.amg;
+        match &amg.fine_a {
+            Some(own) => amg.fine.cycle(own, r, z, &mut amg.coarse),
+            None => amg.fine.cycle(self.a, r, z, &mut amg.coarse),
+        }
     }
+}
+
+/// Stored aggregates as the build takes them, checked: each level's aggregates number that
+/// level's rows, and the next level has as many rows as this one has aggregates.
+fn given_aggregates(rows: usize, aggregates: &[(Vec<u32>, usize)]) -> Option<Vec<Aggregates>> {
+    let mut rows = rows;
+    for (of, count) in aggregates {
+        if of.len() != rows || of.iter().any(|&g| g != NONE && g as usize >= *count) {
+            return None;
+        }
+        rows = *count;
+    }
+    Some(
+        aggregates
+            .iter()
+            .map(|(of, count)| Aggregates {
+                of: of.clone(),
+                count: *count,
+            })
+            .collect(),
+    )
 }
 
 /// Per vertex, the 3×6 near-nullspace block: translations eₖ and rotations `eₖ × (x − c)/L`
@@ -342,8 +557,12 @@ enum Coarse<const B: usize> {
 /// The operators between a level and the next, with their fixed patterns.
 #[derive(Clone, Debug)]
 struct Transfer<const B: usize> {
+    /// The patterns of T and P; their blocks are held in f32 (`t32`, `p32`), P's f64 values
+    /// exist only inside [`Level::galerkin`].
     tentative: Bsr<B, MODES>,
+    t32: Vec<Block32<B, MODES>>,
     p: Bsr<B, MODES>,
+    p32: Vec<Block32<B, MODES>>,
     /// The pattern of Pᵀ (no values: its blocks are P's, `pt_map` says which) and its
     /// number of columns.
     pt: Bsr<MODES, B>,
@@ -369,9 +588,13 @@ impl<const B: usize> Transfer<B> {
     }
 }
 
+/// A level's numbers and work vectors; its matrix is held beside it ([`CoarseLevel`], or the
+/// finest A: see [`Amg`]) and handed to every method.
 #[derive(Clone, Debug)]
 struct Level<const B: usize> {
-    a: Bsr<B, B>,
+    /// Block rows and stored blocks of the level's matrix.
+    rows: usize,
+    blocks: usize,
     /// 0/1 per DOF: constrained (fine) or dropped (coarse) DOFs are 0; P's rows there are zero.
     mask: Vec<Vector<B>>,
     dinv: Vec<Block<B, B>>,
@@ -388,7 +611,7 @@ struct Level<const B: usize> {
 impl<const B: usize> Level<B> {
     /// Set up a level on `a` and decide how it is coarsened; returns the next level's data.
     fn build(
-        a: Bsr<B, B>,
+        a: &impl BlockRows<B, B>,
         nullspace: &[Block<B, MODES>],
         mask: Vec<Vector<B>>,
         params: &AmgParams,
@@ -407,9 +630,10 @@ impl<const B: usize> Level<B> {
             degree: params.smoother_degree.max(1),
             coarse: Coarse::Smooth,
             mask,
-            a,
+            rows: n,
+            blocks: a.pattern().blocks(),
         };
-        level.update_smoother(params);
+        level.update_smoother(a, params);
         let dofs = B * n;
         let last = dofs <= params.max_coarse_dofs || depth + 1 >= params.max_levels;
         let transfer = if let Some(given) = given {
@@ -419,7 +643,7 @@ impl<const B: usize> Level<B> {
         } else if last {
             None
         } else {
-            let strong = strong_neighbours(&level.a, params.strength_threshold);
+            let strong = strong_neighbours(a, params.strength_threshold);
             let active: Vec<bool> = nullspace
                 .iter()
                 .map(|b| b.iter().any(|&x| x != 0.0))
@@ -430,17 +654,21 @@ impl<const B: usize> Level<B> {
             (aggregates.count > 0 && 4 * coarse_dofs <= 3 * dofs)
                 .then(|| tentative(&aggregates, nullspace))
         };
-        let Some((tentative, nullspace_c, kept)) = transfer else {
-            level.coarse = coarsest(&level.a, params);
+        let Some((mut tentative, nullspace_c, kept)) = transfer else {
+            level.coarse = coarsest(a, params);
             return (level, None);
         };
         let nc = tentative.ncols;
-        let p = product_pattern(&level.a, &tentative);
-        let (mut pt, pt_map) = p.transpose_pattern();
-        let mut ap = product_pattern(&level.a, &p);
-        let a_c = product_pattern(&pt, &ap);
-        pt.values = Vec::new();
-        ap.values = Vec::new();
+        let t32 = std::mem::take(&mut tentative.values)
+            .iter()
+            .map(|b| b.cast::<f32>())
+            .collect();
+        let p = product_pattern(a, &tentative);
+        let p32 = vec![Block32::zeros(); p.blocks()];
+        let (pt, pt_map) = p.transpose_pattern();
+        let ap = product_pattern(a, &p);
+        let mut a_c = product_pattern(&pt, &ap);
+        a_c.values = vec![Block::zeros(); a_c.blocks()];
         let mirror = mirror_pairs(&a_c);
         let dropped = kept
             .iter()
@@ -457,7 +685,9 @@ impl<const B: usize> Level<B> {
             .collect();
         let mut transfer = Transfer {
             tentative,
+            t32,
             p,
+            p32,
             pt,
             pt_map,
             ap,
@@ -466,21 +696,20 @@ impl<const B: usize> Level<B> {
             bc: vec![Vector::zeros(); nc],
             xc: vec![Vector::zeros(); nc],
         };
-        let mut a_c = a_c;
-        level.galerkin(&mut transfer, &mut a_c, params);
+        level.galerkin(a, &mut transfer, &mut a_c, params);
         level.coarse = Coarse::Transfer(Box::new(transfer));
         (level, Some((a_c, nullspace_c, mask_c)))
     }
 
     /// D⁻¹ and the Chebyshev interval from the current A. Lanczos starts from the same fixed
     /// vector every time, so a refresh gives the same bits as a fresh build.
-    fn update_smoother(&mut self, params: &AmgParams) {
-        inverse_diagonal(&self.a, &mut self.dinv);
+    fn update_smoother(&mut self, a: &impl BlockRows<B, B>, params: &AmgParams) {
+        inverse_diagonal(a, &mut self.dinv);
         for (i, v) in self.eigen_start.iter_mut().enumerate() {
             *v = Vector::<B>::from_fn(|c, _| pseudo_random(B * i + c));
         }
         let upper = lanczos_bound(
-            &self.a,
+            a,
             &self.dinv,
             &mut self.eigen_start,
             params.lanczos_steps.max(1),
@@ -491,40 +720,59 @@ impl<const B: usize> Level<B> {
     }
 
     /// P = (I − ω·D⁻¹A)·T, Pᵀ, A·P and A_c = Pᵀ·(A·P) into `a_c` (on its pattern).
-    fn galerkin(&self, t: &mut Transfer<B>, a_c: &mut Bsr<MODES, MODES>, params: &AmgParams) {
+    fn galerkin(
+        &self,
+        a: &impl BlockRows<B, B>,
+        t: &mut Transfer<B>,
+        a_c: &mut Bsr<MODES, MODES>,
+        params: &AmgParams,
+    ) {
         let omega = params.prolongator_damping / self.bounds.1;
-        let (a, dinv, mask, tent) = (&self.a, &self.dinv, &self.mask, &t.tentative);
-        t.p.for_each_row_mut(|i, cols, row| {
-            row.iter_mut().for_each(|v| *v = Block::zeros());
-            for k in a.row(i) {
-                let j = a.pattern.cols[k] as usize;
-                for kt in tent.row(j) {
-                    let at = cols
-                        .binary_search(&tent.pattern.cols[kt])
-                        .expect("P holds the pattern of A·T");
-                    row[at] += a.values[k] * tent.values[kt];
-                }
-            }
+        let (dinv, mask, tent, t32) = (&self.dinv, &self.mask, &t.tentative, &t.t32);
+        let (a_cols, a_values) = (&a.pattern().cols, a.values());
+        // P's rows are computed in f64 and stored rounded to f32, block by block (no f64 copy of
+        // P: it would stay in the resident set after the refresh). Each block sums A's row in
+        // order, as a product into the whole row would. The products below read the rounded
+        // blocks, so A_c is the Galerkin product of the P the cycle applies.
+        rows_mut(&t.p.pattern, &mut t.p32, |i, cols, row| {
             let scale = Block::<B, B>::from_diagonal(&mask[i]);
             let left = scale * (-omega * dinv[i]);
-            for v in row.iter_mut() {
-                *v = left * *v;
-            }
-            for kt in tent.row(i) {
-                let at = cols
-                    .binary_search(&tent.pattern.cols[kt])
-                    .expect("diagonal of T");
-                row[at] += scale * tent.values[kt];
+            for (out, &c) in row.iter_mut().zip(cols) {
+                let mut sum = Block::<B, MODES>::zeros();
+                for k in a.row(i) {
+                    let j = a_cols[k] as usize;
+                    for kt in tent.row(j) {
+                        if tent.pattern.cols[kt] == c {
+                            sum += a_values[k] * t32[kt].cast::<f64>();
+                        }
+                    }
+                }
+                let mut v = left * sum;
+                for kt in tent.row(i) {
+                    if tent.pattern.cols[kt] == c {
+                        v += scale * t32[kt].cast::<f64>();
+                    }
+                }
+                *out = v.cast::<f32>();
             }
         });
         // A·P lives only here (it is the largest array of the set-up, larger than A).
         t.ap.values = vec![Block::zeros(); t.ap.blocks()];
-        product_into(a, &t.p, &mut t.ap, false);
-        let (p, map) = (&t.p, &t.pt_map);
+        let p32 = &t.p32;
+        product_with_into(
+            a.pattern(),
+            |k| a_values[k],
+            &t.p.pattern,
+            |k| p32[k].cast::<f64>(),
+            &mut t.ap,
+            false,
+        );
+        let (ap, map) = (&t.ap, &t.pt_map);
         product_with_into(
             &t.pt.pattern,
-            |k| p.values[map[k] as usize].transpose(),
-            &t.ap,
+            |k| p32[map[k] as usize].cast::<f64>().transpose(),
+            &ap.pattern,
+            |k| ap.values[k],
             a_c,
             true,
         );
@@ -537,23 +785,28 @@ impl<const B: usize> Level<B> {
     }
 
     /// Recompute this level's numbers (A already updated) and the levels below.
-    fn refresh(&mut self, params: &AmgParams, rest: &mut [Level<6>]) {
-        self.update_smoother(params);
+    fn refresh(&mut self, a: &impl BlockRows<B, B>, params: &AmgParams, rest: &mut [CoarseLevel]) {
+        self.update_smoother(a, params);
         let mut coarse = std::mem::replace(&mut self.coarse, Coarse::Smooth);
         if let Coarse::Transfer(t) = &mut coarse {
             let (next, below) = rest.split_first_mut().expect("a level below");
-            self.galerkin(t, &mut next.a, params);
-            next.refresh(params, below);
+            self.galerkin(a, t, &mut next.a, params);
+            next.level.refresh(&next.a, params, below);
         } else {
-            coarse = coarsest(&self.a, params);
+            coarse = coarsest(a, params);
         }
         self.coarse = coarse;
     }
 
     /// `x ≈ A⁻¹·b` by one V-cycle from x = 0.
-    fn cycle(&mut self, b: &[Vector<B>], x: &mut [Vector<B>], rest: &mut [Level<6>]) {
+    fn cycle(
+        &mut self,
+        a: &impl BlockRows<B, B>,
+        b: &[Vector<B>],
+        x: &mut [Vector<B>],
+        rest: &mut [CoarseLevel],
+    ) {
         let Level {
-            a,
             dinv,
             bounds,
             r,
@@ -569,10 +822,10 @@ impl<const B: usize> Level<B> {
             Coarse::Transfer(t) => {
                 chebyshev(a, dinv, *bounds, *degree, b, x, true, [r, d, d_next]);
                 a.residual(b, x, r);
-                t.p.multiply_transposed(&t.pt.pattern, &t.pt_map, r, &mut t.bc);
+                multiply_transposed_f32(&t.p32, &t.pt.pattern, &t.pt_map, r, &mut t.bc);
                 let (next, below) = rest.split_first_mut().expect("a level below");
-                next.cycle(&t.bc, &mut t.xc, below);
-                t.p.multiply_add(&t.xc, x);
+                next.level.cycle(&next.a, &t.bc, &mut t.xc, below);
+                multiply_add_f32(&t.p.pattern, &t.p32, &t.xc, x);
                 chebyshev(a, dinv, *bounds, *degree, b, x, false, [r, d, d_next]);
             }
         }
@@ -582,7 +835,7 @@ impl<const B: usize> Level<B> {
     fn memory(&self) -> LevelMemory {
         use crate::memory::vec_bytes;
         let mut m = LevelMemory {
-            matrix: self.a.heap_bytes(),
+            matrix: 0,
             vectors: vec_bytes(&self.mask)
                 + vec_bytes(&self.dinv)
                 + vec_bytes(&self.eigen_start)
@@ -595,7 +848,9 @@ impl<const B: usize> Level<B> {
         match &self.coarse {
             Coarse::Transfer(t) => {
                 m.transfer = t.tentative.heap_bytes()
+                    + vec_bytes(&t.t32)
                     + t.p.heap_bytes()
+                    + vec_bytes(&t.p32)
                     + t.pt.heap_bytes()
                     + vec_bytes(&t.pt_map)
                     + vec_bytes(&t.mirror)
@@ -616,9 +871,9 @@ impl<const B: usize> Level<B> {
 
     fn describe(&self) -> LevelInfo {
         LevelInfo {
-            rows: self.a.rows(),
+            rows: self.rows,
             block_size: B,
-            nonzeros: B * B * self.a.blocks(),
+            nonzeros: B * B * self.blocks,
             spectral_bound: self.bounds.1,
         }
     }
@@ -634,7 +889,7 @@ struct LevelMemory {
 }
 
 /// The coarsest level's solver: dense Cholesky when small enough and it factors, else smoothing.
-fn coarsest<const B: usize>(a: &Bsr<B, B>, params: &AmgParams) -> Coarse<B> {
+fn coarsest<const B: usize>(a: &impl BlockRows<B, B>, params: &AmgParams) -> Coarse<B> {
     if B * a.rows() <= DIRECT_LIMIT.max(params.max_coarse_dofs) {
         let direct = Direct::new(a);
         if direct.is_factored() {

@@ -4,17 +4,20 @@
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
 
-use super::bsr::{Block, Bsr, ROW_CHUNK, Vector, dot};
+use super::bsr::{Block, BlockRows, ROW_CHUNK, Vector, dot};
 
 /// The inverse of each diagonal block of A. A block that is not invertible (a node with no
 /// stiffness) falls back to its inverted diagonal, zero where that is not positive.
-pub(crate) fn inverse_diagonal<const B: usize>(a: &Bsr<B, B>, out: &mut Vec<Block<B, B>>) {
+pub(crate) fn inverse_diagonal<const B: usize>(
+    a: &impl BlockRows<B, B>,
+    out: &mut Vec<Block<B, B>>,
+) {
     out.resize(a.rows(), Block::zeros());
     out.par_iter_mut()
         .enumerate()
         .with_min_len(ROW_CHUNK)
         .for_each(|(i, inv)| {
-            let d = a.find(i, i).map_or(Block::zeros(), |k| a.values[k]);
+            let d = a.find(i, i).map_or(Block::zeros(), |k| a.values()[k]);
             *inv = d
                 .cholesky()
                 .map(|c| c.inverse())
@@ -30,7 +33,7 @@ pub(crate) fn inverse_diagonal<const B: usize>(a: &Bsr<B, B>, out: &mut Vec<Bloc
 /// value alone is always below). `start` seeds the Krylov space (overwritten); the scratch
 /// vectors are resized to the level.
 pub(crate) fn lanczos_bound<const B: usize>(
-    a: &Bsr<B, B>,
+    a: &impl BlockRows<B, B>,
     dinv: &[Block<B, B>],
     start: &mut [Vector<B>],
     steps: usize,
@@ -49,7 +52,9 @@ pub(crate) fn lanczos_bound<const B: usize>(
             .enumerate()
             .with_min_len(ROW_CHUNK)
             .for_each(|(i, t)| {
-                *t = a.find(i, i).map_or(Vector::zeros(), |k| a.values[k] * v[i]);
+                *t = a
+                    .find(i, i)
+                    .map_or(Vector::zeros(), |k| a.values()[k] * v[i]);
             });
         dot(v, tmp, partials).max(0.0).sqrt()
     };
@@ -127,7 +132,7 @@ pub(crate) fn lanczos_bound<const B: usize>(
 /// first product is skipped.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn chebyshev<const B: usize>(
-    a: &Bsr<B, B>,
+    a: &impl BlockRows<B, B>,
     dinv: &[Block<B, B>],
     (lower, upper): (f64, f64),
     degree: usize,
@@ -197,15 +202,15 @@ impl Direct {
 
     /// Factor A (exactly symmetric). If rounding made it indefinite, the diagonal is nudged up by
     /// 1e-12 of its largest entry until it factors (at most a few times).
-    pub fn new<const B: usize>(a: &Bsr<B, B>) -> Self {
+    pub fn new<const B: usize>(a: &impl BlockRows<B, B>) -> Self {
         let n = B * a.rows();
         let mut dense = DMatrix::<f64>::zeros(n, n);
         for i in 0..a.rows() {
             for k in a.row(i) {
-                let j = a.pattern.cols[k] as usize;
+                let j = a.pattern().cols[k] as usize;
                 dense
                     .view_mut((B * i, B * j), (B, B))
-                    .copy_from(&a.values[k]);
+                    .copy_from(&a.values()[k]);
             }
         }
         let scale = dense.diagonal().amax();

@@ -196,3 +196,79 @@ fn same_bits_on_one_and_two_threads() {
     };
     assert_eq!(run(1), run(2));
 }
+
+/// The solver's hierarchy keeps no copy of A: applied with the A it was built on it is the
+/// hierarchy [`Amg::new`] makes, bit for bit; and what a checkpoint stores of it (aggregates and
+/// the finest level's numbers) rebuilds it bit for bit after a refresh, without that A.
+#[test]
+fn a_shared_hierarchy_matches_a_copying_one_and_is_restored_from_its_numbers() {
+    let s = beam(3, 0.0);
+    let bent = beam(3, 0.5);
+    let more = beam(3, 0.7);
+    let params = AmgParams::default();
+    let n = s.a.rows();
+    let r = test_vector(n, 4, &s.free);
+    let cycle = |amg: &mut Amg, a: &BlockCsr| {
+        let mut z = vec![Vec3::zeros(); n];
+        amg.with_matrix(a).apply(&r, &mut z);
+        z
+    };
+    let mut copying = Amg::new(&s.a, &s.positions, &s.free, &params);
+    let mut shared = Amg::new_shared(&s.a, &s.positions, &s.free, &params);
+    assert!(shared.fine_values().is_none() && copying.fine_values().is_some());
+    assert_eq!(cycle(&mut shared, &s.a), cycle(&mut copying, &s.a));
+    shared.refresh(&bent.a);
+    let numbers = shared.fine_numbers().expect("several levels");
+    let mut restored = Amg::restored(
+        &s.a.pattern,
+        &s.positions,
+        &s.free,
+        &params,
+        &shared.aggregates(),
+        &numbers,
+    )
+    .expect("fits");
+    // Applied with a later A (Newton moved on since the refresh): the same bits.
+    assert_eq!(cycle(&mut restored, &more.a), cycle(&mut shared, &more.a));
+    assert_eq!(restored.info().levels, shared.info().levels);
+    // Numbers that do not fit the pattern are refused.
+    let mut short = numbers.clone();
+    short.prolongator.pop();
+    let aggregates = shared.aggregates();
+    assert!(
+        Amg::restored(
+            &s.a.pattern,
+            &s.positions,
+            &s.free,
+            &params,
+            &aggregates,
+            &short
+        )
+        .is_none()
+    );
+}
+
+/// With the current A in its finest level the V-cycle stays symmetric and positive on a matrix
+/// it was not refreshed with.
+#[test]
+fn a_shared_v_cycle_with_a_later_matrix_is_symmetric_and_positive() {
+    let s = beam(3, 0.3);
+    let later = beam(3, 0.6);
+    let n = s.a.rows();
+    let mut amg = Amg::new_shared(&s.a, &s.positions, &s.free, &AmgParams::default());
+    let mut apply = |r: &[Vec3]| {
+        let mut z = vec![Vec3::zeros(); n];
+        amg.with_matrix(&later.a).apply(r, &mut z);
+        z
+    };
+    let dot = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| x.dot(y)).sum::<f64>();
+    for seed in 0..4 {
+        let u = test_vector(n, 2 * seed, &s.free);
+        let v = test_vector(n, 2 * seed + 1, &s.free);
+        let (mu, mv) = (apply(&u), apply(&v));
+        let (uv, vu) = (dot(&u, &mv), dot(&v, &mu));
+        let size = (dot(&u, &mu) * dot(&v, &mv)).sqrt();
+        assert!((uv - vu).abs() <= 1e-10 * size, "{uv} vs {vu}");
+        assert!(dot(&u, &mu) > 0.0 && dot(&v, &mv) > 0.0);
+    }
+}
