@@ -2,6 +2,7 @@
 //! E = 1e6, ν = 0.3, ρ = 1000, clamped at x = 0, backward-Euler system with h = 1/30, γ = 0.01,
 //! linearized at a bent (not rest) state.
 
+use super::level::pseudo_random;
 use super::*;
 use crate::elastic::{AssemblyWork, ElasticBody};
 use crate::linear::cg::{CgParams, CgWorkspace, Jacobi, LinearOperator, conjugate_gradient};
