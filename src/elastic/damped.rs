@@ -62,45 +62,30 @@ impl ElasticBody {
             (w * psi, tangent)
         };
         let svd = self.uses_svd();
-        let chunks = lin
-            .tangents
+        let alternate = alternate_chunks(&mut lin.alternate, lin.tangents.len());
+        lin.tangents
             .par_chunks_mut(CHUNK)
             .zip(lin.buffer.par_chunks_mut(CHUNK))
             .zip(lin.damping.par_chunks_mut(CHUNK))
             .zip(lin.chunk_energy.par_iter_mut())
-            .enumerate();
-        if lin.alternate.is_empty() {
-            chunks.for_each(|(c, (((tangents, buffer), kv), energy))| {
+            .zip(alternate)
+            .enumerate()
+            .for_each(|(c, ((((tangents, buffer), kv), energy), mut alternate))| {
                 let first = c * CHUNK;
                 let mut sum = 0.0;
                 let f_of = |k: usize| self.deformation_gradient(x, first + k);
                 self.with_svds(svd, tangents.len(), f_of, |k, f, s| {
                     let (psi, tan) = kernel(first + k, f, s, &mut buffer[k], &mut kv[k]);
                     sum += psi;
-                    if let Some((tan, _)) = tan {
+                    if let Some((tan, exact)) = tan {
                         tangents[k] = tan;
+                        if let Some(alternate) = alternate.as_deref_mut() {
+                            alternate[k] = exact;
+                        }
                     }
                 });
                 *energy = sum;
             });
-        } else {
-            chunks.zip(lin.alternate.par_chunks_mut(CHUNK)).for_each(
-                |((c, (((tangents, buffer), kv), energy)), alternate)| {
-                    let first = c * CHUNK;
-                    let mut sum = 0.0;
-                    let f_of = |k: usize| self.deformation_gradient(x, first + k);
-                    self.with_svds(svd, tangents.len(), f_of, |k, f, s| {
-                        let (psi, tan) = kernel(first + k, f, s, &mut buffer[k], &mut kv[k]);
-                        sum += psi;
-                        if let Some((tan, exact)) = tan {
-                            tangents[k] = tan;
-                            alternate[k] = exact;
-                        }
-                    });
-                    *energy = sum;
-                },
-            );
-        }
         self.incidence.gather(&lin.buffer, forces, false);
         self.incidence.gather(&lin.damping, kv, false);
         lin.tangents_pending = shifted;
@@ -128,41 +113,38 @@ impl ElasticBody {
             crate::material::shifted_deformation(&f, &df_v, damping.shift)
         };
         let svd = self.uses_svd();
-        if lin.alternate.is_empty() {
-            lin.tangents
-                .par_chunks_mut(CHUNK)
-                .enumerate()
-                .for_each(|(c, tangents)| {
-                    let first = c * CHUNK;
-                    self.with_svds(
-                        svd,
-                        tangents.len(),
-                        |k| g_of(first + k),
-                        |k, g, s| {
-                            tangents[k] = self.model_of(first + k).damped_tangent_svd(g, s, &how).0;
-                        },
-                    );
+        let alternate = alternate_chunks(&mut lin.alternate, lin.tangents.len());
+        lin.tangents
+            .par_chunks_mut(CHUNK)
+            .zip(alternate)
+            .enumerate()
+            .for_each(|(c, (tangents, mut alternate))| {
+                let first = c * CHUNK;
+                let g_in_chunk = |k: usize| g_of(first + k);
+                self.with_svds(svd, tangents.len(), g_in_chunk, |k, g, s| {
+                    let (tangent, exact) = self.model_of(first + k).damped_tangent_svd(g, s, &how);
+                    tangents[k] = tangent;
+                    if let Some(alternate) = alternate.as_deref_mut() {
+                        alternate[k] = exact;
+                    }
                 });
-        } else {
-            lin.tangents
-                .par_chunks_mut(CHUNK)
-                .zip(lin.alternate.par_chunks_mut(CHUNK))
-                .enumerate()
-                .for_each(|(c, (tangents, alternate))| {
-                    let first = c * CHUNK;
-                    self.with_svds(
-                        svd,
-                        tangents.len(),
-                        |k| g_of(first + k),
-                        |k, g, s| {
-                            (tangents[k], alternate[k]) =
-                                self.model_of(first + k).damped_tangent_svd(g, s, &how);
-                        },
-                    );
-                });
-        }
+            });
         lin.tangents_pending = false;
         lin.exact_active = false;
         lin.count_tets();
     }
+}
+
+/// `adaptive`'s alternate pieces by chunks of [`CHUNK`] tets, or `None` for every chunk of
+/// `tets` when the strategy keeps none (`alternate` empty): one loop serves both.
+fn alternate_chunks(
+    alternate: &mut [DiagonalPieces],
+    tets: usize,
+) -> impl IndexedParallelIterator<Item = Option<&mut [DiagonalPieces]>> {
+    let chunks = tets.div_ceil(CHUNK);
+    let kept = alternate.len().div_ceil(CHUNK);
+    alternate
+        .par_chunks_mut(CHUNK)
+        .map(Some)
+        .chain(rayon::iter::repeat_n((), chunks - kept).map(|_| None))
 }
