@@ -8,7 +8,6 @@
 
 use super::amg::{Amg, AmgParams, FineNumbers};
 use super::cg::{CgError, CgInfo, CgParams, CgWorkspace, Preconditioner};
-use super::sparse::BlockPattern;
 use super::state::{
     HierarchyState, MultigridState, SolverState, blocks_in, blocks_out, matrix_in, pattern_in,
     vectors_in, vectors_out,
@@ -247,7 +246,8 @@ impl LinearSolver for Multigrid {
             }
         };
         let n = rest.len();
-        match (&s.pattern, &s.hierarchy) {
+        let pattern = s.pattern.as_ref().map(|p| pattern_in(p, n)).transpose()?;
+        match (&pattern, &s.hierarchy) {
             (Some(pattern), Some(h)) => {
                 if h.free.len() != n {
                     return Err("the stored multigrid mask does not fit the mesh".into());
@@ -255,17 +255,16 @@ impl LinearSolver for Multigrid {
                 let free = vectors_in(&h.free);
                 let amg = if h.values.is_empty() {
                     // Several levels: the aggregates and the finest level's numbers.
-                    let pattern = pattern_in(pattern, n)?;
                     let numbers = FineNumbers {
                         dinv: blocks_in(&h.dinv),
                         bounds: h.bounds,
                         prolongator: h.prolongator.clone(),
                         second: h.second.clone(),
                     };
-                    Amg::restored(&pattern, rest, &free, &self.params, &h.aggregates, &numbers)
+                    Amg::restored(pattern, rest, &free, &self.params, &h.aggregates, &numbers)
                 } else {
                     // One level: the A it keeps.
-                    let a = matrix_in(pattern, &h.values, n)?;
+                    let a = matrix_in(pattern.clone(), &h.values)?;
                     Amg::with_aggregates(&a, rest, &free, &self.params, &h.aggregates)
                 }
                 .ok_or("the stored multigrid hierarchy does not fit the mesh")?;
@@ -274,10 +273,6 @@ impl LinearSolver for Multigrid {
             (_, None) => {}
             (None, Some(_)) => return Err("the stored multigrid hierarchy has no matrix".into()),
         }
-        let pattern = s.pattern.as_ref().map(|p| BlockPattern {
-            row_start: p.0.clone(),
-            cols: p.1.clone(),
-        });
         self.matrix.restore(s.generation, pattern);
         self.baseline_rate = s.baseline_rate;
         self.last_rate = s.last_rate;

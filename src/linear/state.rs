@@ -98,16 +98,12 @@ pub(crate) fn vectors_in(v: &[[f64; 3]]) -> Vec<Vec3> {
     v.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect()
 }
 
-/// A matrix from a stored pattern and blocks, checked for consistency.
-pub(crate) fn matrix_in(
-    pattern: &StoredPattern,
-    blocks: &[[f64; 9]],
-    rows: usize,
-) -> Result<BlockCsr, String> {
-    let pattern = pattern_in(pattern, rows)?;
+/// A matrix from a checked pattern ([`pattern_in`]) and stored blocks, checked for consistency.
+pub(crate) fn matrix_in(pattern: BlockPattern, blocks: &[[f64; 9]]) -> Result<BlockCsr, String> {
     if blocks.len() != pattern.cols.len() {
         return Err(format!(
-            "the stored solver matrix does not fit a system of {rows} vertices"
+            "the stored solver matrix does not fit a system of {} vertices",
+            pattern.rows()
         ));
     }
     Ok(BlockCsr {

@@ -158,46 +158,19 @@ pub struct FineNumbers {
     pub second: Vec<f64>,
 }
 
-/// The arguments every build takes.
-struct BuildInput<'a> {
-    positions: &'a [Vec3],
-    free: &'a [Vec3],
-    params: &'a AmgParams,
-    given: Option<&'a [Aggregates]>,
-    shared: bool,
-}
-
 impl Amg {
     /// Build the hierarchy for `a` (constrained: see the module docs) with the rigid-body modes
     /// of the vertices at `positions` as near-nullspace; `free` is the 0/1 mask per vertex and
     /// component (constrained components carry no mode).
     pub fn new(a: &BlockCsr, positions: &[Vec3], free: &[Vec3], params: &AmgParams) -> Amg {
-        Self::build(
-            a,
-            BuildInput {
-                positions,
-                free,
-                params,
-                given: None,
-                shared: false,
-            },
-        )
+        Self::build(a, positions, free, params, None, false)
     }
 
     /// [`Amg::new`] without a copy of the finest A: it is applied through
     /// [`Amg::with_matrix`] with the current A (see the module docs). A hierarchy of one level
     /// keeps its copy all the same.
     pub fn new_shared(a: &BlockCsr, positions: &[Vec3], free: &[Vec3], params: &AmgParams) -> Amg {
-        Self::build(
-            a,
-            BuildInput {
-                positions,
-                free,
-                params,
-                given: None,
-                shared: true,
-            },
-        )
+        Self::build(a, positions, free, params, None, true)
     }
 
     /// The hierarchy [`Amg::new_shared`] builds, on given aggregates (those of
@@ -213,16 +186,7 @@ impl Amg {
         aggregates: &[(Vec<u32>, usize)],
     ) -> Option<Amg> {
         let given = given_aggregates(a.rows(), aggregates)?;
-        Some(Self::build(
-            a,
-            BuildInput {
-                positions,
-                free,
-                params,
-                given: Some(&given),
-                shared: true,
-            },
-        ))
+        Some(Self::build(a, positions, free, params, Some(&given), true))
     }
 
     /// A shared hierarchy (see [`Amg::new_shared`]) on `pattern` as it was when
@@ -248,16 +212,7 @@ impl Amg {
         // the refresh that made them did.
         let mut stand_in = BlockCsr::zeros(pattern.clone());
         stand_in.add_diagonal(&vec![1.0; n]);
-        let mut amg = Self::build(
-            &stand_in,
-            BuildInput {
-                positions,
-                free,
-                params,
-                given: Some(&given),
-                shared: true,
-            },
-        );
+        let mut amg = Self::build(&stand_in, positions, free, params, Some(&given), true);
         let Coarse::Transfer(t) = &mut amg.fine.coarse else {
             return None;
         };
@@ -337,15 +292,17 @@ impl Amg {
         out
     }
 
-    fn build(a: &BlockCsr, input: BuildInput<'_>) -> Amg {
+    /// The hierarchy on `a`, on `given` aggregates or its own; `shared`: without a copy of the
+    /// finest A (see [`Amg::new_shared`]).
+    fn build(
+        a: &BlockCsr,
+        positions: &[Vec3],
+        free: &[Vec3],
+        params: &AmgParams,
+        given: Option<&[Aggregates]>,
+        shared: bool,
+    ) -> Amg {
         let started = Instant::now();
-        let BuildInput {
-            positions,
-            free,
-            params,
-            given,
-            shared,
-        } = input;
         let n = a.rows();
         assert!(positions.len() == n && free.len() == n);
         let nullspace = rigid_modes(positions, free);
