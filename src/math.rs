@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 mod lanes;
-pub use lanes::{LANES, svd_rv_lanes, svd_rv_lanes_scalar_qr, sym_eigen3_lanes};
+pub use lanes::{LANES, svd_rv_lanes, sym_eigen3_lanes};
 
 /// A 3-vector of f64.
 pub type Vec3 = Vector3<f64>;
@@ -134,12 +134,15 @@ pub fn svd_rv(f: &Mat3) -> Svd {
     svd_from_v(f, v)
 }
 
+/// The Givens rotations of the QR of F·V, in order: (column, row p, row r), zeroing (r, column).
+const GIVENS: [(usize, usize, usize); 3] = [(0, 0, 1), (0, 0, 2), (1, 1, 2)];
+
 /// U and σ from a Givens QR of F·V, given V (the second half of [`svd_rv`]).
 #[inline]
 fn svd_from_v(f: &Mat3, v: Mat3) -> Svd {
     let mut b = f * v;
     let mut ut = Mat3::identity(); // accumulates Qᵀ = G₃G₂G₁
-    for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {
+    for (col, p, r) in GIVENS {
         givens_rows(&mut b, &mut ut, col, p, r);
     }
     let sigma = Vec3::new(b[(0, 0)], b[(1, 1)], b[(2, 2)]);

@@ -99,7 +99,7 @@ impl ElasticBody {
 
     /// `a += scale·K` (K from the tangents in `lin`); `a`'s pattern must hold
     /// [`ElasticBody::stiffness_pattern`] (it may hold more blocks). Element matrices are
-    /// added straight into the blocks, coloured chunks in parallel (see [`AssemblyWork`]): the
+    /// added straight into the blocks, chunks of rows in parallel (see [`AssemblyWork`]): the
     /// same bits for any thread count.
     pub fn add_stiffness(
         &self,

@@ -1,3 +1,6 @@
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
 use super::*;
 use crate::material::{Lame, ModelKind, shifted_deformation};
 use crate::mesh::generate::box_mesh;
@@ -17,13 +20,8 @@ fn batched_loops_match_the_per_tet_kernels() {
     };
     let model = Model::new(ModelKind::NeoHookean, lame);
     let body = ElasticBody::with_regions(mesh, model, 1000.0, vec![linear]).unwrap();
-    let mut state = 31u64;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-    };
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    let mut next = move || rng.random_range(-0.5..0.5);
     let x: Vec<Vec3> = body
         .mesh
         .positions

@@ -22,7 +22,7 @@
 use wide::f64x4;
 
 use super::{
-    MAX_SWEEPS, Mat3, PLANES, Svd, Vec3, align_null_pair, jacobi_start, sort_descending, svd_from_v,
+    GIVENS, MAX_SWEEPS, Mat3, PLANES, Svd, Vec3, align_null_pair, jacobi_start, sort_descending,
 };
 
 /// How many matrices [`svd_rv_lanes`] decomposes together.
@@ -112,7 +112,7 @@ fn qr_lanes(f: &[Mat3; LANES], v: [Mat3; LANES]) -> [Svd; LANES] {
         }
         ut[i][i] = f64x4::ONE;
     }
-    for (col, p, r) in [(0, 0, 1), (0, 0, 2), (1, 1, 2)] {
+    for (col, p, r) in GIVENS {
         let (x, y) = (b[p][col], b[r][col]);
         let h = (x * x + y * y).sqrt();
         let go = h.simd_ne(zero);
@@ -136,16 +136,11 @@ fn qr_lanes(f: &[Mat3; LANES], v: [Mat3; LANES]) -> [Svd; LANES] {
     })
 }
 
-/// [`svd_rv`](super::svd_rv) of [`LANES`] matrices with only the eigen-solves in lock-step
-/// (each QR on its own): kept for the micro benchmark's comparison.
-pub fn svd_rv_lanes_scalar_qr(f: &[Mat3; LANES]) -> [Svd; LANES] {
-    let gram: [Mat3; LANES] = std::array::from_fn(|l| f[l].transpose() * f[l]);
-    let eigen = sym_eigen3_lanes(&gram);
-    std::array::from_fn(|l| svd_from_v(&f[l], eigen[l].1))
-}
-
 #[cfg(test)]
 mod tests {
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
     use super::super::{svd_rv, sym_eigen3};
     use super::*;
 
@@ -153,13 +148,8 @@ mod tests {
     /// repeated singular values, zero, and lanes mixing them (so lanes converge at different
     /// sweeps).
     fn cases() -> Vec<Mat3> {
-        let mut state = 4242u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(4242);
+        let mut next = move || rng.random_range(-1.0..1.0);
         let mut out = Vec::new();
         for k in 0..4000 {
             let m = Mat3::from_fn(|_, _| next());
@@ -184,7 +174,6 @@ mod tests {
         for group in cases().chunks_exact(LANES) {
             let f: [Mat3; LANES] = group.try_into().unwrap();
             let batch = svd_rv_lanes(&f);
-            assert_eq!(batch, svd_rv_lanes_scalar_qr(&f));
             for l in 0..LANES {
                 let one = svd_rv(&f[l]);
                 // Compare bits, not values: -0.0 and +0.0 must match too.
