@@ -98,44 +98,47 @@ impl BlockPattern {
     }
 }
 
-/// Run `f` on every row of the row chunks `chunks` (of [`ROW_CHUNK`] rows each), whose blocks
-/// are `values`: halves the chunk range and recurses with `rayon::join`, so the rows' disjoint
-/// slices are handed out without allocating a list of them (this runs once per Newton iterate).
-fn rows_in_chunks(
-    p: &BlockPattern,
-    chunks: std::ops::Range<usize>,
-    values: &mut [Mat3],
-    f: &(impl Fn(usize, &[u32], &mut [Mat3]) + Sync),
+/// Run `f(c, rows, entries of those rows)` for the chunks c of `chunk_rows` consecutive rows of
+/// `pattern`, in parallel. The chunks' disjoint slices of `values` are handed out by halving the
+/// chunk range with `rayon::join`, without allocating a list of them (this runs once per Newton
+/// iterate).
+pub(crate) fn for_each_row_chunk<T: Send>(
+    pattern: &BlockPattern,
+    values: &mut [T],
+    chunk_rows: usize,
+    f: impl Fn(usize, std::ops::Range<usize>, &mut [T]) + Sync,
 ) {
-    let n = p.rows();
-    let first_row = |chunk: usize| (chunk * ROW_CHUNK).min(n);
-    if chunks.len() > 1 {
-        let mid = chunks.start + chunks.len() / 2;
-        let split = (p.row_start[first_row(mid)] - p.row_start[first_row(chunks.start)]) as usize;
-        let (head, tail) = values.split_at_mut(split);
-        rayon::join(
-            || rows_in_chunks(p, chunks.start..mid, head, f),
-            || rows_in_chunks(p, mid..chunks.end, tail, f),
-        );
-        return;
-    }
-    let mut values = values;
-    for i in first_row(chunks.start)..first_row(chunks.end) {
-        let range = p.row(i);
-        let (row, rest) = values.split_at_mut(range.len());
-        f(i, &p.cols[range], row);
-        values = rest;
-    }
+    let chunk_rows = chunk_rows.max(1);
+    let chunks = pattern.rows().div_ceil(chunk_rows);
+    split_row_chunks(pattern, chunk_rows, 0..chunks, values, &f);
 }
 
-/// Run `f(c, rows, p, blocks)` on the chunks c in `chunks` of `chunk_rows` rows each, whose
-/// blocks are `values` (see [`BlockCsr::for_each_row_chunk_mut`]).
-fn row_chunks(
+/// Run `f(i, columns of row i, entries of row i)` for every row of `pattern`, in parallel over
+/// chunks of `chunk_rows` rows (rows are disjoint slices of `values`).
+pub(crate) fn for_each_row<T: Send>(
+    pattern: &BlockPattern,
+    values: &mut [T],
+    chunk_rows: usize,
+    f: impl Fn(usize, &[u32], &mut [T]) + Sync,
+) {
+    for_each_row_chunk(pattern, values, chunk_rows, |_, rows, values| {
+        let mut values = values;
+        for i in rows {
+            let range = pattern.row(i);
+            let (row, rest) = values.split_at_mut(range.len());
+            f(i, &pattern.cols[range], row);
+            values = rest;
+        }
+    });
+}
+
+/// [`for_each_row_chunk`] on the chunks in `chunks`, whose entries are `values`.
+fn split_row_chunks<T: Send>(
     p: &BlockPattern,
     chunk_rows: usize,
     chunks: std::ops::Range<usize>,
-    values: &mut [Mat3],
-    f: &(impl Fn(usize, std::ops::Range<usize>, &BlockPattern, &mut [Mat3]) + Sync),
+    values: &mut [T],
+    f: &(impl Fn(usize, std::ops::Range<usize>, &mut [T]) + Sync),
 ) {
     let n = p.rows();
     let first_row = |chunk: usize| (chunk * chunk_rows).min(n);
@@ -144,12 +147,12 @@ fn row_chunks(
         let split = (p.row_start[first_row(mid)] - p.row_start[first_row(chunks.start)]) as usize;
         let (head, tail) = values.split_at_mut(split);
         rayon::join(
-            || row_chunks(p, chunk_rows, chunks.start..mid, head, f),
-            || row_chunks(p, chunk_rows, mid..chunks.end, tail, f),
+            || split_row_chunks(p, chunk_rows, chunks.start..mid, head, f),
+            || split_row_chunks(p, chunk_rows, mid..chunks.end, tail, f),
         );
     } else if chunks.len() == 1 {
         let c = chunks.start;
-        f(c, first_row(c)..first_row(c + 1), p, values);
+        f(c, first_row(c)..first_row(c + 1), values);
     }
 }
 
@@ -201,8 +204,7 @@ impl BlockCsr {
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over fixed row
     /// chunks (rows are disjoint slices of the values, so no synchronisation is needed).
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Mat3]) + Sync) {
-        let chunks = self.pattern.rows().div_ceil(ROW_CHUNK);
-        rows_in_chunks(&self.pattern, 0..chunks, &mut self.values, &f);
+        for_each_row(&self.pattern, &mut self.values, ROW_CHUNK, f);
     }
 
     /// Run `f(c, rows, the pattern, blocks of those rows)` for the chunks c of `chunk_rows`
@@ -213,14 +215,10 @@ impl BlockCsr {
         chunk_rows: usize,
         f: impl Fn(usize, std::ops::Range<usize>, &BlockPattern, &mut [Mat3]) + Sync,
     ) {
-        let chunks = self.rows().div_ceil(chunk_rows.max(1));
-        row_chunks(
-            &self.pattern,
-            chunk_rows.max(1),
-            0..chunks,
-            &mut self.values,
-            &f,
-        );
+        let pattern = &self.pattern;
+        for_each_row_chunk(pattern, &mut self.values, chunk_rows, |c, rows, blocks| {
+            f(c, rows, pattern, blocks)
+        });
     }
 
     /// Add `d[i]·I` to every diagonal block (a lumped mass).

@@ -9,7 +9,7 @@
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
-use crate::linear::sparse::{BlockCsr, BlockPattern};
+use crate::linear::sparse::{BlockCsr, BlockPattern, for_each_row};
 
 /// Rows per parallel task. Results never depend on it (rows are independent); it only sets the
 /// grain of the work split.
@@ -60,7 +60,7 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
 
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over row chunks.
     pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Block<R, C>]) + Sync) {
-        rows_mut(&self.pattern, &mut self.values, f);
+        for_each_row(&self.pattern, &mut self.values, ROW_CHUNK, f);
     }
 
     /// The transpose's pattern (no blocks) and, for each of its blocks, the index of the block
@@ -226,34 +226,6 @@ pub(crate) fn multiply_transposed_f32<const R: usize, const C: usize>(
             }
             *yi = sum;
         });
-}
-
-/// Run `f(i, columns of row i, entries of row i)` for every row of `pattern`, in parallel over
-/// row chunks (rows are disjoint slices of `values`).
-pub(crate) fn rows_mut<T: Send>(
-    pattern: &BlockPattern,
-    values: &mut [T],
-    f: impl Fn(usize, &[u32], &mut [T]) + Sync,
-) {
-    let n = pattern.rows();
-    let (row_start, cols) = (&pattern.row_start, &pattern.cols);
-    let mut chunks: Vec<(usize, &mut [T])> = Vec::with_capacity(n.div_ceil(ROW_CHUNK));
-    let mut rest: &mut [T] = values;
-    for start in (0..n).step_by(ROW_CHUNK) {
-        let end = (start + ROW_CHUNK).min(n);
-        let len = (row_start[end] - row_start[start]) as usize;
-        let (head, tail) = rest.split_at_mut(len);
-        chunks.push((start, head));
-        rest = tail;
-    }
-    chunks.into_par_iter().for_each(|(start, mut values)| {
-        for i in start..(start + ROW_CHUNK).min(n) {
-            let range = row_start[i] as usize..row_start[i + 1] as usize;
-            let (row, tail) = values.split_at_mut(range.len());
-            f(i, &cols[range], row);
-            values = tail;
-        }
-    });
 }
 
 /// The pattern of `a·b`, without blocks (a caller that needs them allocates them: a set-up's

@@ -3,11 +3,12 @@
 
 use super::aggregate::{Aggregates, MODES, NONE, aggregate, strong_neighbours, tentative};
 use super::bsr::{
-    Block, Block32, BlockRows, Bsr, Vector, mirror_lower, mirror_pairs, multiply_add_f32,
-    multiply_transposed_f32, product_pattern, product_with_into, rows_mut,
+    Block, Block32, BlockRows, Bsr, ROW_CHUNK, Vector, mirror_lower, mirror_pairs,
+    multiply_add_f32, multiply_transposed_f32, product_pattern, product_with_into,
 };
 use super::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
 use super::{AmgParams, CoarseLevel, DIRECT_LIMIT, LevelInfo};
+use crate::linear::sparse::for_each_row;
 
 /// What a level hands to the next: the coarse matrix, near-nullspace and kept-DOF mask.
 pub(super) type Coarsened = Option<(Bsr<6, 6>, Vec<Block<6, 6>>, Vec<Vector<6>>)>;
@@ -203,7 +204,7 @@ impl<const B: usize> Level<B> {
         // P: it would stay in the resident set after the refresh). Each block sums A's row in
         // order, as a product into the whole row would. The products below read the rounded
         // blocks, so A_c is the Galerkin product of the P the cycle applies.
-        rows_mut(&t.p.pattern, &mut t.p32, |i, cols, row| {
+        for_each_row(&t.p.pattern, &mut t.p32, ROW_CHUNK, |i, cols, row| {
             let scale = Block::<B, B>::from_diagonal(&mask[i]);
             let left = scale * (-omega * dinv[i]);
             for (out, &c) in row.iter_mut().zip(cols) {
