@@ -12,7 +12,7 @@ use tetsim::linear::amg::{Amg, AmgParams};
 use tetsim::linear::cg::{
     CgParams, CgWorkspace, Jacobi, LinearOperator, Preconditioner, conjugate_gradient,
 };
-use tetsim::linear::sparse::BlockCsr;
+use tetsim::linear::sparse::{BlockCsr, Precision};
 use tetsim::material::{Definiteness, Lame, Model, ModelKind};
 use tetsim::mesh::generate::box_mesh;
 
@@ -49,7 +49,8 @@ fn main() {
     let lin = body.linearize(&x, Definiteness::Projected);
     let t_linearize = started.elapsed().as_secs_f64();
     let h = 1.0 / 30.0;
-    let mut a = BlockCsr::zeros(body.stiffness_pattern());
+    // Stored as the solver stores its A.
+    let mut a = BlockCsr::zeros_in(body.stiffness_pattern(), Precision::default());
     let mut work = AssemblyWork::default();
     let mut t_assemble = Vec::new();
     for _ in 0..3 {
@@ -153,7 +154,7 @@ fn main() {
         );
     };
     solve(&mut amg, "AMG-PCG");
-    let blocks: Vec<_> = (0..nv).map(|i| *a.diagonal(i)).collect();
+    let blocks: Vec<_> = (0..nv).map(|i| a.diagonal(i)).collect();
     let mut jacobi = Jacobi::default();
     jacobi.set_from_blocks(&blocks);
     solve(&mut jacobi, "Jacobi-PCG (assembled)");

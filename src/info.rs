@@ -335,6 +335,8 @@ fn lowest_frequency(
         rayleigh_stiffness: 0.0,
         rayleigh_mass: 0.0,
         definiteness: Definiteness::Projected,
+        // The shift is small: K + σM is nearly singular, beyond what an f32 A resolves.
+        matrix_precision: crate::integrator::MatrixPrecision::F64,
         ..scene_params.clone()
     };
     let rest = &body.mesh.positions;

@@ -307,7 +307,7 @@ fn gershgorin_bound(a: &BlockCsr, mass: &[f64], free: &[Vec3]) -> f64 {
             let mut rows = Vec3::zeros();
             for k in p.row(i) {
                 let j = p.cols[k] as usize;
-                let block = &a.values[k];
+                let block = &a.block(k);
                 for r in 0..3 {
                     for c in 0..3 {
                         rows[r] += block[(r, c)].abs() * free[j][c];

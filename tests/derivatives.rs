@@ -847,8 +847,8 @@ fn assembled_stiffness_matches_matrix_free_product() {
                 let j = a.pattern.cols[k] as usize;
                 let kt = a.pattern.find(j, i).unwrap();
                 assert!(
-                    (a.values[k] - a.values[kt].transpose()).norm()
-                        <= 1e-9 * a.values[k].norm().max(1.0)
+                    (a.block(k) - a.block(kt).transpose()).norm()
+                        <= 1e-9 * a.block(k).norm().max(1.0)
                 );
             }
         }

@@ -695,7 +695,7 @@ impl Term for ContactTerm {
                         .pattern
                         .find(i, j)
                         .expect("obstacle pairs couple one face or edge, body pairs are held");
-                    a.values[at] += block(h, k, l);
+                    a.blocks_mut().add(at, &block(h, k, l));
                 }
             }
         }

@@ -127,9 +127,9 @@ impl ElasticBody {
             work.prepare(tets, a.rows());
         }
         let work = &*work;
-        a.for_each_row_chunk_mut(work.chunk_rows, |c, rows, pattern, blocks| {
+        a.for_each_row_chunk_mut(work.chunk_rows, |c, rows, pattern, mut blocks| {
             if overwrite {
-                blocks.fill(Mat3::zeros());
+                blocks.fill_zero();
             }
             let first = pattern.row_start[rows.start] as usize;
             let list = &work.tets[work.tet_start[c] as usize..work.tet_start[c + 1] as usize];
@@ -153,7 +153,7 @@ impl ElasticBody {
                         let k = cols
                             .binary_search(&(tet[j] as u32))
                             .expect("the pattern holds the mesh's");
-                        blocks[start + k] += block * scale;
+                        blocks.add(start + k, &(block * scale));
                     }
                 }
             }

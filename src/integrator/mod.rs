@@ -47,7 +47,7 @@ pub mod terms;
 pub use crate::linear::PreconditionerKind;
 pub use line_search::MAX_LINE_SEARCH_CUTS;
 pub use newton::Newton;
-pub use params::{DampingTangent, Integrator, OnFailure, SolverParams};
+pub use params::{DampingTangent, Integrator, MatrixPrecision, OnFailure, SolverParams};
 pub use problem::{IncrementalPotential, StepContext, StepKind};
 pub use stats::{NewtonInfo, StepStats, Timings};
 pub use terms::{HessianShape, Term};

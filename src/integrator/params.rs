@@ -5,6 +5,7 @@ use crate::linear::LinearSolverParams;
 use crate::linear::PreconditionerKind;
 use crate::linear::amg::AmgParams;
 use crate::linear::cg::CgParams;
+use crate::linear::sparse::Precision;
 use crate::material::{DampingStiffness, Definiteness};
 
 /// What is integrated.
@@ -15,6 +16,26 @@ pub enum Integrator {
     BackwardEuler,
     /// Static equilibrium under loads ramped over load steps.
     Quasistatic,
+}
+
+/// How the assembled strategies (AMG, Cholesky) store Newton's matrix A (scene key
+/// `matrix_precision`). f32 halves the bytes CG's product and the multigrid smoother read (a
+/// third less CG time on the issue-8 beams, same Newton and CG iteration counts, the tip within
+/// 1e-7); but A's rounding, about 6e-8 of each entry, limits how exactly a Newton step solves
+/// A·d = −g to about 6e-8 times A's condition number: harmless with a dynamic step's mass term
+/// (M/h² bounds the condition), not with the stiffness alone, whose condition grows with the
+/// mesh and with near-incompressibility.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MatrixPrecision {
+    /// f32 for backward Euler with the AMG, else f64 (quasistatic steps, the Cholesky
+    /// preconditioner).
+    #[default]
+    Auto,
+    /// f32 always.
+    F32,
+    /// f64 always.
+    F64,
 }
 
 /// What to do when a step does not converge (SPEC §9).
@@ -107,6 +128,8 @@ pub struct SolverParams {
     /// Newton and CG iteration counts are unchanged on the issue-8 beams. Default false (see
     /// the user guide's speed section for the measurement).
     pub f32_matrix: bool,
+    /// How the assembled strategies store A (see [`MatrixPrecision`]). Default auto.
+    pub matrix_precision: MatrixPrecision,
     /// With the Cholesky preconditioner: keep the factor across Newton iterations and frames and
     /// refactor when CG needs more than `CHOLESKY_REFACTOR_RATE` (see `linear::cholesky`) iterations per decade (or the
     /// factorization failed, or the constrained DOFs changed); false factors at every Newton
@@ -138,6 +161,7 @@ impl Default for SolverParams {
             line_search: true,
             inexact_newton: true,
             f32_matrix: false,
+            matrix_precision: MatrixPrecision::Auto,
             cholesky_reuse: true,
             on_failure: OnFailure::Retry,
             max_step_cuts: 4,
@@ -152,6 +176,18 @@ impl SolverParams {
             kind: self.preconditioner,
             amg: self.amg.clone(),
             f32_matrix: self.f32_matrix,
+            matrix_precision: match self.matrix_precision {
+                MatrixPrecision::F32 => Precision::F32,
+                MatrixPrecision::F64 => Precision::F64,
+                // A direct factor gains little from f32 and loses definiteness to its rounding.
+                MatrixPrecision::Auto
+                    if self.integrator == Integrator::BackwardEuler
+                        && self.preconditioner == PreconditionerKind::Amg =>
+                {
+                    Precision::F32
+                }
+                MatrixPrecision::Auto => Precision::F64,
+            },
             cholesky_reuse: self.cholesky_reuse,
         }
     }

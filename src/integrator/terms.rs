@@ -256,7 +256,7 @@ impl Elasticity {
     pub fn write_matrix(&mut self, ctx: &StepContext<'_>, a: &mut BlockCsr) {
         if let Some(ghosts) = &self.ghosts {
             ghosts.write_matrix(ctx.body, &self.lin, 1.0, ctx.free);
-            a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
+            a.blocks_mut().fill_zero();
             return;
         }
         ctx.body

@@ -39,7 +39,7 @@ impl SparseCholesky {
     /// For systems of `vertices` vertices.
     pub fn new(params: &LinearSolverParams, vertices: usize) -> Self {
         SparseCholesky {
-            matrix: AssembledMatrix::new(params.f32_matrix),
+            matrix: AssembledMatrix::new(params.f32_matrix, params.matrix_precision),
             factor: Box::default(),
             reuse: params.cholesky_reuse,
             factored_free: Vec::new(),

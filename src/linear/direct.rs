@@ -198,7 +198,7 @@ impl Cholesky {
         } else {
             self.info.failures += 1;
             self.diagonal.clear();
-            self.diagonal.extend((0..a.rows()).map(|i| *a.diagonal(i)));
+            self.diagonal.extend((0..a.rows()).map(|i| a.diagonal(i)));
             self.fallback.set_from_blocks(&self.diagonal);
             self.active = Active::Fallback;
         }
@@ -321,8 +321,9 @@ impl Analysis {
                     }
                     let last = if i == j { r } else { 2 };
                     // Block (J, I) row r is column r of block (I, J) = A[3I + c, 3J + r].
+                    let block = a.block(k);
                     for c in 0..=last {
-                        self.values[out] = a.values[k][(r, c)];
+                        self.values[out] = block[(r, c)];
                         out += 1;
                     }
                 }
@@ -382,16 +383,17 @@ mod tests {
                 let j = a.pattern.cols[k] as usize;
                 if j > i {
                     let m = Mat3::from_fn(|_, _| next());
-                    a.values[k] = m;
+                    a.blocks_mut().set(k, &m);
                     let kt = a.pattern.find(j, i).unwrap();
-                    a.values[kt] = m.transpose();
+                    a.blocks_mut().set(kt, &m.transpose());
                 }
             }
         }
         for i in 0..a.rows() {
             let k = a.pattern.find(i, i).unwrap();
             let m = Mat3::from_fn(|_, _| next());
-            a.values[k] = m + m.transpose() + Mat3::identity() * (60.0 + shift);
+            a.blocks_mut()
+                .set(k, &(m + m.transpose() + Mat3::identity() * (60.0 + shift)));
         }
         a
     }
@@ -430,9 +432,11 @@ mod tests {
         let mut a = beam_matrix(2, 0.0);
         let mut chol = Cholesky::new();
         chol.factorize(&a).unwrap();
-        for v in &mut a.values {
-            *v *= 3.0;
-        }
+        a.for_each_row_mut(|_, _, mut row| {
+            for k in 0..row.len() {
+                row.set(k, &(row.get(k) * 3.0));
+            }
+        });
         chol.factorize(&a).unwrap();
         let b = sample(a.rows());
         let mut x = vec![Vec3::zeros(); a.rows()];

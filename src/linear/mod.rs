@@ -170,6 +170,8 @@ pub struct LinearSolverParams {
     pub amg: amg::AmgParams,
     /// Assembled strategies: CG multiplies with an f32 upper triangle of A.
     pub f32_matrix: bool,
+    /// How the assembled A is stored.
+    pub matrix_precision: sparse::Precision,
     /// Cholesky: keep the factor across iterates while CG converges fast.
     pub cholesky_reuse: bool,
 }
@@ -193,6 +195,8 @@ pub fn make_solver(params: &LinearSolverParams, vertices: usize) -> Box<dyn Line
 pub(crate) struct AssembledMatrix {
     /// A, constrained.
     pub a: Option<BlockCsr>,
+    /// How `a` is stored.
+    precision: sparse::Precision,
     /// The f32 upper triangle CG multiplies with, when asked for.
     pub upper: Option<sparse::UpperF32>,
     /// The pattern generation `a` was made for.
@@ -205,13 +209,26 @@ pub(crate) struct AssembledMatrix {
 }
 
 impl AssembledMatrix {
-    pub fn new(f32_matrix: bool) -> Self {
+    pub fn new(f32_matrix: bool, precision: sparse::Precision) -> Self {
         AssembledMatrix {
             a: None,
+            precision,
             upper: f32_matrix.then(sparse::UpperF32::default),
             generation: None,
             restored: None,
         }
+    }
+
+    /// How A is stored.
+    pub fn precision(&self) -> sparse::Precision {
+        self.precision
+    }
+
+    /// Store A in f64 from the next assembly on (a new storage: the next
+    /// [`AssembledMatrix::assemble`] says the pattern changed).
+    pub fn use_f64(&mut self) {
+        self.precision = sparse::Precision::F64;
+        self.a = None;
     }
 
     /// Assemble and constrain A; true when the pattern changed since the last call (the first
@@ -223,7 +240,7 @@ impl AssembledMatrix {
             changed |= restored != *pattern.pattern;
         }
         if changed || self.a.is_none() {
-            self.a = Some(BlockCsr::zeros(pattern.pattern.clone()));
+            self.a = Some(BlockCsr::zeros_in(pattern.pattern.clone(), self.precision));
             self.generation = Some(pattern.generation);
         }
         let a = self.a.as_mut().expect("made above");
@@ -281,10 +298,7 @@ impl AssembledMatrix {
     pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
         use crate::memory::vec_bytes;
         if let Some(a) = &self.a {
-            inventory.add(
-                "assembled A (f64 blocks, both triangles)",
-                vec_bytes(&a.values),
-            );
+            inventory.add("assembled A (f64 blocks, both triangles)", a.block_bytes());
             inventory.add(
                 "assembled A's pattern",
                 vec_bytes(&a.pattern.row_start) + vec_bytes(&a.pattern.cols),
@@ -295,12 +309,12 @@ impl AssembledMatrix {
         }
     }
 
-    /// Bytes of the matrix one product reads (72-byte blocks plus a 4-byte column index, or the
-    /// f32 upper triangle).
+    /// Bytes of the matrix one product reads (72- or 36-byte blocks plus a 4-byte column index,
+    /// or the f32 upper triangle).
     pub fn bytes(&self) -> f64 {
         match (&self.upper, &self.a) {
             (Some(upper), _) => upper.matrix_bytes() as f64,
-            (None, Some(a)) => (a.pattern.blocks() * (72 + 4) + 4 * (a.rows() + 1)) as f64,
+            (None, Some(a)) => a.product_bytes() as f64,
             (None, None) => 0.0,
         }
     }
@@ -488,15 +502,16 @@ mod tests {
 
         fn assemble(&mut self, a: &mut BlockCsr) {
             assert_eq!(a.pattern, self.pattern);
-            a.values.iter_mut().for_each(|b| *b = Mat3::zeros());
+            a.blocks_mut().fill_zero();
             a.add_diagonal(&vec![MASS; self.len()]);
             for (i, j, k) in self.springs() {
                 let at = |r, c| a.pattern.find(r, c).expect("in the pattern");
                 let (ii, jj, ij, ji) = (at(i, i), at(j, j), at(i, j), at(j, i));
-                a.values[ii] += k;
-                a.values[jj] += k;
-                a.values[ij] -= k;
-                a.values[ji] -= k;
+                let mut blocks = a.blocks_mut();
+                blocks.add(ii, &k);
+                blocks.add(jj, &k);
+                blocks.add(ij, &-k);
+                blocks.add(ji, &-k);
             }
         }
 
@@ -543,6 +558,8 @@ mod tests {
                 kind,
                 amg: amg::AmgParams::default(),
                 f32_matrix: false,
+                // f64: the true residual is checked to 1e-8.
+                matrix_precision: sparse::Precision::F64,
                 cholesky_reuse: true,
             };
             let mut solver = make_solver(&params, n);
@@ -607,6 +624,7 @@ mod tests {
             kind: PreconditionerKind::Amg,
             amg: amg::AmgParams::default(),
             f32_matrix: false,
+            matrix_precision: sparse::Precision::F32,
             cholesky_reuse: true,
         };
         let free = vec![Vec3::repeat(1.0); n];

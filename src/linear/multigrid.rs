@@ -8,6 +8,7 @@
 
 use super::amg::{Amg, AmgParams, FineNumbers};
 use super::cg::{CgError, CgInfo, CgParams, CgWorkspace, Preconditioner};
+use super::sparse::Precision;
 use super::state::{
     HierarchyState, MultigridState, SolverState, blocks_in, blocks_out, matrix_in, pattern_in,
     vectors_in, vectors_out,
@@ -47,6 +48,9 @@ pub struct Multigrid {
     last_rate: f64,
     /// Whether the last CG solve stopped at its iteration cap.
     last_capped: bool,
+    /// CG's starting guess, kept while A is f32 for a solve again in f64 (see
+    /// [`Multigrid::solve`]).
+    start: Vec<Vec3>,
     report: SolverReport,
 }
 
@@ -54,13 +58,14 @@ impl Multigrid {
     /// For systems of `vertices` vertices.
     pub fn new(params: &LinearSolverParams, vertices: usize) -> Self {
         Multigrid {
-            matrix: AssembledMatrix::new(params.f32_matrix),
+            matrix: AssembledMatrix::new(params.f32_matrix, params.matrix_precision),
             amg: None,
             params: params.amg.clone(),
             cg: CgWorkspace::new(vertices),
             baseline_rate: None,
             last_rate: 0.0,
             last_capped: false,
+            start: Vec::new(),
             report: SolverReport {
                 name: "amg",
                 ..Default::default()
@@ -71,6 +76,27 @@ impl Multigrid {
     /// The hierarchy, once built.
     pub fn amg(&self) -> Option<&Amg> {
         self.amg.as_deref()
+    }
+
+    /// CG with the assembled A, preconditioned by the hierarchy; keeps the counts the refresh
+    /// rules read.
+    fn solve_assembled(
+        &mut self,
+        b: &[Vec3],
+        x: &mut [Vec3],
+        free: &[Vec3],
+        params: &CgParams,
+    ) -> Result<CgInfo, CgError> {
+        let amg = self.amg.as_deref_mut().expect("prepared before solving");
+        let a = self.matrix.a.as_ref().expect("prepared before solving");
+        let upper = self.matrix.upper.as_mut();
+        let mut m = amg.with_matrix(a);
+        let result = super::solve_assembled(a, upper, &mut m, b, x, free, params, &mut self.cg);
+        let info = super::info_of(&result);
+        self.last_rate = super::iterations_per_decade(info);
+        self.last_capped = !info.converged;
+        self.baseline_rate.get_or_insert(self.last_rate);
+        result
     }
 }
 
@@ -150,23 +176,37 @@ impl LinearSolver for Multigrid {
         );
     }
 
+    /// CG that meets negative curvature on a positive definite system whose A is f32 solves
+    /// again with A in f64, which it keeps from then on: the rounding of A (about 6e-8 of each
+    /// entry) can outweigh the mass term where the stiffness is huge (a body collapsed onto a
+    /// line: tangents of 1e12 against masses of 1). A breakdown on an exact tangent is
+    /// `adaptive`'s signal and is returned as it is.
     fn solve(
         &mut self,
-        _system: &mut dyn System,
+        system: &mut dyn System,
         b: &[Vec3],
         x: &mut [Vec3],
         free: &[Vec3],
         params: &CgParams,
     ) -> Result<CgInfo, CgError> {
-        let amg = self.amg.as_deref_mut().expect("prepared before solving");
-        let a = self.matrix.a.as_ref().expect("prepared before solving");
-        let upper = self.matrix.upper.as_mut();
-        let mut m = amg.with_matrix(a);
-        let result = super::solve_assembled(a, upper, &mut m, b, x, free, params, &mut self.cg);
-        let info = super::info_of(&result);
-        self.last_rate = super::iterations_per_decade(info);
-        self.last_capped = !info.converged;
-        self.baseline_rate.get_or_insert(self.last_rate);
+        let f32_projected = self.matrix.precision() == Precision::F32 && system.is_projected();
+        if f32_projected {
+            self.start.clear();
+            self.start.extend_from_slice(x);
+        }
+        let result = self.solve_assembled(b, x, free, params);
+        if f32_projected && matches!(result, Err(CgError::NotPositiveDefinite { .. })) {
+            log::info!(
+                "CG met negative curvature on the f32 matrix of a positive definite system: the \
+                 matrix is assembled in f64 from here on"
+            );
+            self.matrix.use_f64();
+            self.amg = None;
+            self.baseline_rate = None;
+            self.prepare(system, free);
+            x.copy_from_slice(&self.start);
+            return self.solve_assembled(b, x, free, params);
+        }
         result
     }
 
@@ -179,15 +219,22 @@ impl LinearSolver for Multigrid {
 
     /// The block matrix, and the V-cycle's matrices: each level read 2·degree + 1 times
     /// (Chebyshev pre- and post-smoothing and the residual), 8 bytes per stored entry plus its
-    /// index share.
+    /// index share; a shared finest level reads the system's A as stored (4 bytes an entry in
+    /// f32).
     fn bytes_per_iteration(&self, _matrix_free_bytes: f64) -> f64 {
         let reads = (2 * self.params.smoother_degree + 1) as f64;
         let preconditioner = self.amg.as_ref().map_or(0.0, |amg| {
+            let fine_entry = match (amg.fine_values(), &self.matrix.a) {
+                (None, Some(a)) => a.bytes_per_block() as f64 / 9.0,
+                _ => 8.0,
+            };
             amg.info()
                 .levels
                 .iter()
-                .map(|l| {
-                    reads * l.nonzeros as f64 * (8.0 + 4.0 / (l.block_size * l.block_size) as f64)
+                .enumerate()
+                .map(|(depth, l)| {
+                    let entry = if depth == 0 { fine_entry } else { 8.0 };
+                    reads * l.nonzeros as f64 * (entry + 4.0 / (l.block_size * l.block_size) as f64)
                 })
                 .sum::<f64>()
         });

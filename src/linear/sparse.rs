@@ -8,6 +8,7 @@
 //! transposed part that falls outside itself into a private spill buffer, and spills are summed
 //! in chunk order.
 
+use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 use crate::math::{Mat3, Vec3};
@@ -156,20 +157,137 @@ fn split_row_chunks<T: Send>(
     }
 }
 
-/// A symmetric matrix of 3×3 blocks on a [`BlockPattern`], full pattern, f64.
+/// How a [`BlockCsr`] stores its numbers. A dynamic step's system matrix is [`Precision::F32`]
+/// by default (see [`crate::integrator::MatrixPrecision`]): CG's product and the multigrid
+/// smoother read it about six times per CG iteration, so its bytes are most of an iteration's
+/// memory traffic, and Newton measures its residual with the f64 forces, not with A. Matrices
+/// compared with finite differences, or nearly singular ones (a quasistatic K, an analysis's),
+/// are [`Precision::F64`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// f64 blocks (72 bytes each).
+    F64,
+    /// f32 blocks (36 bytes each); every addition is done in f64 and rounded once.
+    #[default]
+    F32,
+}
+
+/// A 3×3 block in f32.
+pub type Mat3f = nalgebra::Matrix3<f32>;
+
+/// The blocks of a [`BlockCsr`], in its [`Precision`].
+#[derive(Clone, Debug, PartialEq)]
+enum Blocks {
+    F64(Vec<Mat3>),
+    F32(Vec<Mat3f>),
+}
+
+impl Default for Blocks {
+    fn default() -> Self {
+        Blocks::F64(Vec::new())
+    }
+}
+
+/// Mutable access to a run of a [`BlockCsr`]'s blocks (a row or a chunk of rows), whatever its
+/// precision: read as f64, added to in f64.
+pub enum BlocksMut<'a> {
+    /// Blocks of an f64 matrix.
+    F64(&'a mut [Mat3]),
+    /// Blocks of an f32 matrix.
+    F32(&'a mut [Mat3f]),
+}
+
+impl BlocksMut<'_> {
+    /// Block k of the run.
+    #[inline]
+    pub fn get(&self, k: usize) -> Mat3 {
+        match self {
+            BlocksMut::F64(b) => b[k],
+            BlocksMut::F32(b) => b[k].cast(),
+        }
+    }
+
+    /// Block k = m.
+    #[inline]
+    pub fn set(&mut self, k: usize, m: &Mat3) {
+        match self {
+            BlocksMut::F64(b) => b[k] = *m,
+            BlocksMut::F32(b) => b[k] = m.cast(),
+        }
+    }
+
+    /// Block k += m (in f64, rounded once).
+    #[inline]
+    pub fn add(&mut self, k: usize, m: &Mat3) {
+        match self {
+            BlocksMut::F64(b) => b[k] += m,
+            BlocksMut::F32(b) => b[k] = (b[k].cast::<f64>() + m).cast(),
+        }
+    }
+
+    /// Every block of the run = 0.
+    pub fn fill_zero(&mut self) {
+        match self {
+            BlocksMut::F64(b) => b.fill(Mat3::zeros()),
+            BlocksMut::F32(b) => b.fill(Mat3f::zeros()),
+        }
+    }
+
+    /// Blocks in the run.
+    pub fn len(&self) -> usize {
+        match self {
+            BlocksMut::F64(b) => b.len(),
+            BlocksMut::F32(b) => b.len(),
+        }
+    }
+
+    /// Whether the run is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A symmetric matrix of 3×3 blocks on a [`BlockPattern`], full pattern (both triangles), in
+/// f64 or f32 (see [`Precision`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BlockCsr {
     /// The pattern.
     pub pattern: BlockPattern,
     /// One block per pattern entry.
-    pub values: Vec<Mat3>,
+    blocks: Blocks,
 }
 
 impl BlockCsr {
-    /// Zero matrix on a pattern.
+    /// Zero f64 matrix on a pattern.
     pub fn zeros(pattern: BlockPattern) -> Self {
-        let values = vec![Mat3::zeros(); pattern.blocks()];
-        BlockCsr { pattern, values }
+        Self::zeros_in(pattern, Precision::F64)
+    }
+
+    /// Zero matrix on a pattern, stored in `precision`.
+    pub fn zeros_in(pattern: BlockPattern, precision: Precision) -> Self {
+        let n = pattern.blocks();
+        let blocks = match precision {
+            Precision::F64 => Blocks::F64(vec![Mat3::zeros(); n]),
+            Precision::F32 => Blocks::F32(vec![Mat3f::zeros(); n]),
+        };
+        BlockCsr { pattern, blocks }
+    }
+
+    /// An f64 matrix from its blocks, one per pattern entry.
+    pub fn from_blocks(pattern: BlockPattern, blocks: Vec<Mat3>) -> Self {
+        assert_eq!(blocks.len(), pattern.blocks());
+        BlockCsr {
+            pattern,
+            blocks: Blocks::F64(blocks),
+        }
+    }
+
+    /// How the blocks are stored.
+    pub fn precision(&self) -> Precision {
+        match self.blocks {
+            Blocks::F64(_) => Precision::F64,
+            Blocks::F32(_) => Precision::F32,
+        }
     }
 
     /// Number of block rows.
@@ -177,34 +295,93 @@ impl BlockCsr {
         self.pattern.rows()
     }
 
+    /// Block k (in pattern order), as f64.
+    #[inline]
+    pub fn block(&self, k: usize) -> Mat3 {
+        match &self.blocks {
+            Blocks::F64(b) => b[k],
+            Blocks::F32(b) => b[k].cast(),
+        }
+    }
+
+    /// Every block, as f64 (a copy).
+    pub fn blocks_f64(&self) -> Vec<Mat3> {
+        match &self.blocks {
+            Blocks::F64(b) => b.clone(),
+            Blocks::F32(b) => b.iter().map(|m| m.cast()).collect(),
+        }
+    }
+
+    /// All blocks, for writing.
+    pub fn blocks_mut(&mut self) -> BlocksMut<'_> {
+        match &mut self.blocks {
+            Blocks::F64(b) => BlocksMut::F64(b),
+            Blocks::F32(b) => BlocksMut::F32(b),
+        }
+    }
+
+    /// Bytes of the blocks.
+    pub fn block_bytes(&self) -> usize {
+        use crate::memory::vec_bytes;
+        match &self.blocks {
+            Blocks::F64(b) => vec_bytes(b),
+            Blocks::F32(b) => vec_bytes(b),
+        }
+    }
+
+    /// Bytes one stored block takes (72 in f64, 36 in f32).
+    pub fn bytes_per_block(&self) -> usize {
+        match self.precision() {
+            Precision::F64 => 72,
+            Precision::F32 => 36,
+        }
+    }
+
+    /// Bytes one product reads of the matrix: blocks, column indices, row starts.
+    pub fn product_bytes(&self) -> usize {
+        self.pattern.blocks() * (self.bytes_per_block() + 4) + 4 * (self.rows() + 1)
+    }
+
     /// The diagonal block of row i.
-    pub fn diagonal(&self, i: usize) -> &Mat3 {
+    pub fn diagonal(&self, i: usize) -> Mat3 {
         let k = self
             .pattern
             .find(i, i)
             .expect("the pattern holds the diagonal");
-        &self.values[k]
+        self.block(k)
+    }
+
+    /// `(A·x)ᵢ`, summed in the pattern's order.
+    #[inline]
+    pub fn row_product(&self, i: usize, x: &[Vec3]) -> Vec3 {
+        match &self.blocks {
+            Blocks::F64(b) => row_product(&self.pattern, b, i, x),
+            Blocks::F32(b) => row_product(&self.pattern, b, i, x),
+        }
     }
 
     /// `y = A·x` (full pattern; parallel over rows, deterministic).
     pub fn multiply(&self, x: &[Vec3], y: &mut [Vec3]) {
-        let p = &self.pattern;
-        y.par_iter_mut()
-            .enumerate()
-            .with_min_len(ROW_CHUNK)
-            .for_each(|(i, yi)| {
-                let mut sum = Vec3::zeros();
-                for k in p.row(i) {
-                    sum += self.values[k] * x[p.cols[k] as usize];
-                }
-                *yi = sum;
-            });
+        fn run<S: StoredReal>(p: &BlockPattern, b: &[Matrix3<S>], x: &[Vec3], y: &mut [Vec3]) {
+            y.par_iter_mut()
+                .enumerate()
+                .with_min_len(ROW_CHUNK)
+                .for_each(|(i, yi)| *yi = row_product(p, b, i, x));
+        }
+        match &self.blocks {
+            Blocks::F64(b) => run(&self.pattern, b, x, y),
+            Blocks::F32(b) => run(&self.pattern, b, x, y),
+        }
     }
 
     /// Run `f(i, columns of row i, blocks of row i)` for every row, in parallel over fixed row
     /// chunks (rows are disjoint slices of the values, so no synchronisation is needed).
-    pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Mat3]) + Sync) {
-        for_each_row(&self.pattern, &mut self.values, ROW_CHUNK, f);
+    pub fn for_each_row_mut(&mut self, f: impl Fn(usize, &[u32], BlocksMut<'_>) + Sync) {
+        let p = &self.pattern;
+        match &mut self.blocks {
+            Blocks::F64(b) => for_each_row(p, b, ROW_CHUNK, |i, c, r| f(i, c, BlocksMut::F64(r))),
+            Blocks::F32(b) => for_each_row(p, b, ROW_CHUNK, |i, c, r| f(i, c, BlocksMut::F32(r))),
+        }
     }
 
     /// Run `f(c, rows, the pattern, blocks of those rows)` for the chunks c of `chunk_rows`
@@ -213,22 +390,27 @@ impl BlockCsr {
     pub fn for_each_row_chunk_mut(
         &mut self,
         chunk_rows: usize,
-        f: impl Fn(usize, std::ops::Range<usize>, &BlockPattern, &mut [Mat3]) + Sync,
+        f: impl Fn(usize, std::ops::Range<usize>, &BlockPattern, BlocksMut<'_>) + Sync,
     ) {
-        let pattern = &self.pattern;
-        for_each_row_chunk(pattern, &mut self.values, chunk_rows, |c, rows, blocks| {
-            f(c, rows, pattern, blocks)
-        });
+        let p = &self.pattern;
+        match &mut self.blocks {
+            Blocks::F64(b) => for_each_row_chunk(p, b, chunk_rows, |c, rows, b| {
+                f(c, rows, p, BlocksMut::F64(b))
+            }),
+            Blocks::F32(b) => for_each_row_chunk(p, b, chunk_rows, |c, rows, b| {
+                f(c, rows, p, BlocksMut::F32(b))
+            }),
+        }
     }
 
     /// Add `d[i]·I` to every diagonal block (a lumped mass).
     pub fn add_diagonal(&mut self, d: &[f64]) {
         assert_eq!(d.len(), self.rows());
-        self.for_each_row_mut(|i, cols, row| {
+        self.for_each_row_mut(|i, cols, mut row| {
             let k = cols
                 .binary_search(&(i as u32))
                 .expect("the pattern holds the diagonal");
-            row[k] += Mat3::from_diagonal_element(d[i]);
+            row.add(k, &Mat3::from_diagonal_element(d[i]));
         });
     }
 
@@ -236,10 +418,15 @@ impl BlockCsr {
     /// column and put the original diagonal entry (1 if it is not positive) back, so the matrix
     /// stays SPD with the constrained DOFs decoupled.
     pub fn constrain(&mut self, free: &[Vec3]) {
-        self.for_each_row_mut(|i, cols, row| {
-            for (block, &j) in row.iter_mut().zip(cols) {
+        self.for_each_row_mut(|i, cols, mut row| {
+            for (k, &j) in cols.iter().enumerate() {
                 let j = j as usize;
-                let diagonal = *block;
+                let fixed = |v: &Vec3| v.iter().any(|&c| c == 0.0);
+                if !fixed(&free[i]) && !fixed(&free[j]) {
+                    continue;
+                }
+                let diagonal = row.get(k);
+                let mut block = diagonal;
                 for r in 0..3 {
                     for c in 0..3 {
                         if free[i][r] == 0.0 || free[j][c] == 0.0 {
@@ -258,6 +445,7 @@ impl BlockCsr {
                         }
                     }
                 }
+                row.set(k, &block);
             }
         });
     }
@@ -266,6 +454,35 @@ impl BlockCsr {
     pub fn upper_f32(&self, out: &mut UpperF32) {
         out.fill_from(self);
     }
+}
+
+/// The number types a [`BlockCsr`] stores, for kernels written once for both.
+trait StoredReal: nalgebra::Scalar + Copy + Send + Sync {
+    fn load(m: &Matrix3<Self>) -> Mat3;
+}
+
+impl StoredReal for f64 {
+    #[inline]
+    fn load(m: &Mat3) -> Mat3 {
+        *m
+    }
+}
+
+impl StoredReal for f32 {
+    #[inline]
+    fn load(m: &Mat3f) -> Mat3 {
+        m.cast()
+    }
+}
+
+/// `(A·x)ᵢ` for blocks `b` on `p`, in the pattern's order.
+#[inline]
+fn row_product<S: StoredReal>(p: &BlockPattern, b: &[Matrix3<S>], i: usize, x: &[Vec3]) -> Vec3 {
+    let mut sum = Vec3::zeros();
+    for k in p.row(i) {
+        sum += S::load(&b[k]) * x[p.cols[k] as usize];
+    }
+    sum
 }
 
 /// One triangle (j ≥ i) of a symmetric block matrix in f32, with a deterministic parallel
@@ -293,7 +510,7 @@ impl UpperF32 {
         for i in 0..p.rows() {
             for k in p.row(i) {
                 if p.cols[k] as usize >= i {
-                    let m = &a.values[k];
+                    let m = a.block(k);
                     // Column-major, as nalgebra stores it.
                     self.values[k_out] = std::array::from_fn(|e| m[e] as f32);
                     k_out += 1;
@@ -457,9 +674,9 @@ mod tests {
                             Mat3::zeros()
                         };
                     let m = if i == j { m + m.transpose() } else { m };
-                    a.values[k] = m;
+                    a.blocks_mut().set(k, &m);
                     let kt = a.pattern.find(j, i).unwrap();
-                    a.values[kt] = m.transpose();
+                    a.blocks_mut().set(kt, &m.transpose());
                 }
             }
         }
@@ -501,12 +718,72 @@ mod tests {
     }
 
     #[test]
+    fn f32_storage_rounds_each_sum_once_and_multiplies_like_the_f64_matrix() {
+        let a = random_symmetric(4);
+        let n = a.rows();
+        // The same blocks added in two parts into an f32 matrix: each addition is done in f64
+        // and rounded once (on these numbers the result is the rounded f64 block).
+        let mut b = BlockCsr::zeros_in(a.pattern.clone(), Precision::F32);
+        assert_eq!(b.precision(), Precision::F32);
+        b.for_each_row_mut(|i, _, mut row| {
+            let start = a.pattern.row(i).start;
+            for k in 0..row.len() {
+                row.add(k, &(0.25 * a.block(start + k)));
+                row.add(k, &(0.75 * a.block(start + k)));
+            }
+        });
+        for k in 0..a.pattern.blocks() {
+            let (exact, stored) = (a.block(k), b.block(k));
+            assert_eq!(stored, exact.cast::<f32>().cast::<f64>(), "block {k}");
+            let kt = a
+                .pattern
+                .find(a.pattern.cols[k] as usize, row_of(&a.pattern, k))
+                .unwrap();
+            assert_eq!(stored, b.block(kt).transpose(), "block {k}: symmetric bits");
+        }
+        assert_eq!(2 * b.block_bytes(), a.block_bytes());
+        let x: Vec<Vec3> = (0..n)
+            .map(|i| Vec3::new((i as f64).cos(), -1.0, (i as f64 * 0.7).sin()))
+            .collect();
+        let (mut full, mut rounded) = (vec![Vec3::zeros(); n], vec![Vec3::zeros(); n]);
+        a.multiply(&x, &mut full);
+        b.multiply(&x, &mut rounded);
+        for i in 0..n {
+            assert!(
+                (full[i] - rounded[i]).norm() <= 1e-6 * (1.0 + full[i].norm()),
+                "row {i}"
+            );
+            assert_eq!(rounded[i], b.row_product(i, &x));
+        }
+        // Constraining keeps the stored diagonal entry.
+        let mut free = vec![Vec3::repeat(1.0); n];
+        free[5] = Vec3::new(1.0, 0.0, 1.0);
+        let d = b.diagonal(5);
+        b.constrain(&free);
+        let mut e = vec![Vec3::zeros(); n];
+        e[5] = Vec3::y();
+        b.multiply(&e, &mut rounded);
+        for (i, v) in rounded.iter().enumerate() {
+            let expected = if i == 5 {
+                Vec3::new(0.0, d[(1, 1)], 0.0)
+            } else {
+                Vec3::zeros()
+            };
+            assert_eq!(*v, expected, "row {i}");
+        }
+    }
+
+    fn row_of(p: &BlockPattern, k: usize) -> usize {
+        p.row_start.partition_point(|&s| s as usize <= k) - 1
+    }
+
+    #[test]
     fn constrained_matrix_decouples_fixed_dofs() {
         let mut a = random_symmetric(2);
         let n = a.rows();
         let mut free = vec![Vec3::repeat(1.0); n];
         free[3] = Vec3::new(0.0, 1.0, 0.0);
-        let d = *a.diagonal(3);
+        let d = a.diagonal(3);
         a.constrain(&free);
         let mut e = vec![Vec3::zeros(); n];
         e[3] = Vec3::x();

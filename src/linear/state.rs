@@ -106,10 +106,7 @@ pub(crate) fn matrix_in(pattern: BlockPattern, blocks: &[[f64; 9]]) -> Result<Bl
             pattern.rows()
         ));
     }
-    Ok(BlockCsr {
-        pattern,
-        values: blocks_in(blocks),
-    })
+    Ok(BlockCsr::from_blocks(pattern, blocks_in(blocks)))
 }
 
 /// A stored pattern, checked for consistency.

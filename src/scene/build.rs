@@ -151,6 +151,7 @@ impl Scene {
             line_search: s.line_search,
             inexact_newton: s.inexact_newton,
             f32_matrix: s.f32_matrix,
+            matrix_precision: s.matrix_precision,
             cholesky_reuse: s.cholesky_reuse,
             on_failure: match s.on_failure {
                 OnFailureName::Retry => OnFailure::Retry,

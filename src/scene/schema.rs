@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use crate::integrator::SolverParams;
+use crate::integrator::{MatrixPrecision, SolverParams};
 use crate::material::{DampingStiffness, Definiteness, ModelKind};
 use crate::mesh::ordering::VertexOrder;
 
@@ -544,6 +544,9 @@ pub struct SolverSpec {
     pub inexact_newton: bool,
     /// Assembled matrix CG multiplies with (AMG path): false f64 full, true f32 upper triangle.
     pub f32_matrix: bool,
+    /// How the assembled system matrix is stored: "auto" (default: f32 in dynamic steps, f64
+    /// in quasistatic ones), "f32" or "f64". See [`MatrixPrecision`].
+    pub matrix_precision: MatrixPrecision,
     /// "cholesky": keep the factor while CG converges fast (default true) or factor at every
     /// Newton iterate (false).
     pub cholesky_reuse: bool,
@@ -581,6 +584,7 @@ impl Default for SolverSpec {
             line_search: p.line_search,
             inexact_newton: p.inexact_newton,
             f32_matrix: p.f32_matrix,
+            matrix_precision: p.matrix_precision,
             cholesky_reuse: p.cholesky_reuse,
             on_failure: OnFailureName::Retry,
             max_step_cuts: p.max_step_cuts,

@@ -29,14 +29,14 @@ pub(crate) fn strong_neighbours<const B: usize>(
 ) -> Vec<Vec<u32>> {
     let n = a.rows();
     let diagonal: Vec<f64> = (0..n)
-        .map(|i| a.find(i, i).map_or(0.0, |k| a.values()[k].norm()))
+        .map(|i| a.find(i, i).map_or(0.0, |k| a.block(k).norm()))
         .collect();
     (0..n)
         .map(|i| {
             a.row(i)
                 .filter_map(|k| {
                     let j = a.pattern().cols[k] as usize;
-                    let norm = a.values()[k].norm();
+                    let norm = a.block(k).norm();
                     let strong =
                         j != i && norm > 0.0 && norm > theta * (diagonal[i] * diagonal[j]).sqrt();
                     strong.then_some(j as u32)

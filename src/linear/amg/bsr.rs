@@ -114,8 +114,8 @@ impl<const R: usize, const C: usize> Bsr<R, C> {
 pub(crate) trait BlockRows<const R: usize, const C: usize>: Sync {
     /// Rows and sorted block columns.
     fn pattern(&self) -> &BlockPattern;
-    /// The blocks, one per pattern entry.
-    fn values(&self) -> &[Block<R, C>];
+    /// Block k (in pattern order), as f64.
+    fn block(&self, k: usize) -> Block<R, C>;
 
     /// Number of block rows.
     fn rows(&self) -> usize {
@@ -136,10 +136,10 @@ pub(crate) trait BlockRows<const R: usize, const C: usize>: Sync {
     /// `(M·x)ᵢ`.
     #[inline]
     fn row_product(&self, i: usize, x: &[Vector<C>]) -> Vector<R> {
-        let (pattern, values) = (self.pattern(), self.values());
+        let pattern = self.pattern();
         let mut sum = Vector::<R>::zeros();
         for k in pattern.row(i) {
-            sum += values[k] * x[pattern.cols[k] as usize];
+            sum += self.block(k) * x[pattern.cols[k] as usize];
         }
         sum
     }
@@ -167,17 +167,25 @@ impl<const R: usize, const C: usize> BlockRows<R, C> for Bsr<R, C> {
     fn pattern(&self) -> &BlockPattern {
         &self.pattern
     }
-    fn values(&self) -> &[Block<R, C>] {
-        &self.values
+    #[inline]
+    fn block(&self, k: usize) -> Block<R, C> {
+        self.values[k]
     }
 }
 
+/// The system's A, f64 or f32 (see [`crate::linear::sparse::Precision`]): its row products
+/// choose the storage once per row, not per block.
 impl BlockRows<3, 3> for BlockCsr {
     fn pattern(&self) -> &BlockPattern {
         &self.pattern
     }
-    fn values(&self) -> &[Block<3, 3>] {
-        &self.values
+    #[inline]
+    fn block(&self, k: usize) -> Block<3, 3> {
+        BlockCsr::block(self, k)
+    }
+    #[inline]
+    fn row_product(&self, i: usize, x: &[Vector<3>]) -> Vector<3> {
+        BlockCsr::row_product(self, i, x)
     }
 }
 
@@ -271,10 +279,9 @@ pub(crate) fn product_into<const R: usize, const K: usize, const C: usize>(
     out: &mut Bsr<R, C>,
     upper: bool,
 ) {
-    let values = a.values();
     product_with_into(
         a.pattern(),
-        |k| values[k],
+        |k| a.block(k),
         &b.pattern,
         |k| b.values[k],
         out,

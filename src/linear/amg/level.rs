@@ -199,7 +199,7 @@ impl<const B: usize> Level<B> {
     ) {
         let omega = params.prolongator_damping / self.bounds.1;
         let (dinv, mask, tent, t32) = (&self.dinv, &self.mask, &t.tentative, &t.t32);
-        let (a_cols, a_values) = (&a.pattern().cols, a.values());
+        let a_cols = &a.pattern().cols;
         // P's rows are computed in f64 and stored rounded to f32, block by block (no f64 copy of
         // P: it would stay in the resident set after the refresh). Each block sums A's row in
         // order, as a product into the whole row would. The products below read the rounded
@@ -213,7 +213,7 @@ impl<const B: usize> Level<B> {
                     let j = a_cols[k] as usize;
                     for kt in tent.row(j) {
                         if tent.pattern.cols[kt] == c {
-                            sum += a_values[k] * t32[kt].cast::<f64>();
+                            sum += a.block(k) * t32[kt].cast::<f64>();
                         }
                     }
                 }
@@ -231,7 +231,7 @@ impl<const B: usize> Level<B> {
         let p32 = &t.p32;
         product_with_into(
             a.pattern(),
-            |k| a_values[k],
+            |k| a.block(k),
             &t.p.pattern,
             |k| p32[k].cast::<f64>(),
             &mut t.ap,

@@ -309,7 +309,7 @@ impl Amg {
         let (fine, mut next) = Level::build(a, &nullspace, free.to_vec(), params, 0, given);
         let fine_a = (!shared || !matches!(fine.coarse, Coarse::Transfer(_))).then(|| Bsr {
             pattern: a.pattern.clone(),
-            values: a.values.clone(),
+            values: a.blocks_f64(),
             ncols: n,
         });
         let mut coarse: Vec<CoarseLevel> = Vec::new();
@@ -335,10 +335,10 @@ impl Amg {
     /// constrained DOFs): the aggregates, T and the patterns are kept.
     pub fn refresh(&mut self, a: &BlockCsr) {
         let started = Instant::now();
-        assert_eq!(a.values.len(), self.fine.blocks, "same pattern");
+        assert_eq!(a.pattern.blocks(), self.fine.blocks, "same pattern");
         match &mut self.fine_a {
             Some(own) => {
-                own.values.copy_from_slice(&a.values);
+                own.values = a.blocks_f64();
                 self.fine.refresh(own, &self.params, &mut self.coarse);
             }
             None => self.fine.refresh(a, &self.params, &mut self.coarse),

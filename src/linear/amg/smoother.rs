@@ -17,7 +17,7 @@ pub(crate) fn inverse_diagonal<const B: usize>(
         .enumerate()
         .with_min_len(ROW_CHUNK)
         .for_each(|(i, inv)| {
-            let d = a.find(i, i).map_or(Block::zeros(), |k| a.values()[k]);
+            let d = a.find(i, i).map_or(Block::zeros(), |k| a.block(k));
             *inv = d
                 .cholesky()
                 .map(|c| c.inverse())
@@ -52,9 +52,7 @@ pub(crate) fn lanczos_bound<const B: usize>(
             .enumerate()
             .with_min_len(ROW_CHUNK)
             .for_each(|(i, t)| {
-                *t = a
-                    .find(i, i)
-                    .map_or(Vector::zeros(), |k| a.values()[k] * v[i]);
+                *t = a.find(i, i).map_or(Vector::zeros(), |k| a.block(k) * v[i]);
             });
         dot(v, tmp, partials).max(0.0).sqrt()
     };
@@ -210,7 +208,7 @@ impl Direct {
                 let j = a.pattern().cols[k] as usize;
                 dense
                     .view_mut((B * i, B * j), (B, B))
-                    .copy_from(&a.values()[k]);
+                    .copy_from(&a.block(k));
             }
         }
         let scale = dense.diagonal().amax();

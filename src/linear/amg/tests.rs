@@ -85,7 +85,7 @@ fn solve(s: &System, m: &mut dyn Preconditioner, tolerance: f64) -> (Vec<Vec3>, 
 }
 
 fn jacobi(a: &BlockCsr) -> Jacobi {
-    let blocks: Vec<_> = (0..a.rows()).map(|i| *a.diagonal(i)).collect();
+    let blocks: Vec<_> = (0..a.rows()).map(|i| a.diagonal(i)).collect();
     let mut j = Jacobi::default();
     j.set_from_blocks(&blocks);
     j
