@@ -27,13 +27,16 @@ pub fn corner_gradients(bm: &Mat3) -> [Vec3; 4] {
 /// dF̂ = uᵢ cₐᵀ there (uᵢ = row i of U, cₐ = Vᵀbₐ); its coordinates z = (diagonal of dF̂, the
 /// symmetric and the antisymmetric combination of each off-diagonal pair) make
 /// `K_e = W·Zᵀ D Z` with D = diag(∂²Ψ̂/∂σ², sym/2, skew/2). About half the work of applying the
-/// tangent to twelve unit dF.
+/// tangent to twelve unit dF. Only corners 1–3 take the Gram form: corner 0's gradient is minus
+/// the sum of theirs, so its blocks are sums, `K₀ᵦ = −Σₐ Kₐᵦ` and `K₀₀ = −Σᵦ K₀ᵦ` (made exactly
+/// symmetric), 6 Gram blocks instead of 10.
 pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
     let grads = corner_gradients(bm);
     let vt = tangent.v.transpose();
-    let mut z = [[0.0f64; 9]; 12];
-    let mut dz = [[0.0f64; 9]; 12];
-    for (a, g) in grads.iter().enumerate() {
+    // Row 3(a − 1) + i: the unit displacement (a, i) of corner a = 1, 2, 3.
+    let mut z = [[0.0f64; 9]; 9];
+    let mut dz = [[0.0f64; 9]; 9];
+    for (a, g) in grads[1..].iter().enumerate() {
         let c = vt * g;
         for i in 0..3 {
             let u = tangent.u.row(i);
@@ -55,18 +58,21 @@ pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
             }
         }
     }
-    let mut blocks = [Mat3::zeros(); 10];
-    let mut k = 0;
-    for a in 0..4 {
-        for b in a..4 {
-            blocks[k] = Mat3::from_fn(|i, j| {
-                let (p, q) = (&z[3 * a + i], &dz[3 * b + j]);
-                w * (0..9).map(|m| p[m] * q[m]).sum::<f64>()
-            });
-            k += 1;
-        }
-    }
-    blocks
+    // Blocks (a, b), 1 ≤ a ≤ b ≤ 3, row-major.
+    let gram = |a: usize, b: usize| {
+        Mat3::from_fn(|i, j| {
+            let (p, q) = (&z[3 * (a - 1) + i], &dz[3 * (b - 1) + j]);
+            w * (0..9).map(|m| p[m] * q[m]).sum::<f64>()
+        })
+    };
+    let (k11, k12, k13) = (gram(1, 1), gram(1, 2), gram(1, 3));
+    let (k22, k23, k33) = (gram(2, 2), gram(2, 3), gram(3, 3));
+    let k01 = -(k11 + k12.transpose() + k13.transpose());
+    let k02 = -(k12 + k22 + k23.transpose());
+    let k03 = -(k13 + k23 + k33);
+    let k00 = -(k01 + k02 + k03);
+    let k00 = 0.5 * (k00 + k00.transpose());
+    [k00, k01, k02, k03, k11, k12, k13, k22, k23, k33]
 }
 
 /// Index of block (a, b), a ≤ b, in [`element_stiffness`]'s output.
