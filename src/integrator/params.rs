@@ -22,9 +22,11 @@ pub enum Integrator {
 /// `matrix_precision`). f32 halves the bytes CG's product and the multigrid smoother read (a
 /// third less CG time on the issue-8 beams, same Newton and CG iteration counts, the tip within
 /// 1e-7); but A's rounding, about 6e-8 of each entry, limits how exactly a Newton step solves
-/// A·d = −g to about 6e-8 times A's condition number: harmless with a dynamic step's mass term
-/// (M/h² bounds the condition), not with the stiffness alone, whose condition grows with the
-/// mesh and with near-incompressibility.
+/// A·d = −g to about 6e-8 times the condition of A scaled by its diagonal: harmless with a
+/// dynamic step's mass term (M/h² bounds it), not with the stiffness alone, whose condition
+/// grows with the mesh and with near-incompressibility, nor with contact barriers (see
+/// [`crate::linear::System::needs_f64`]), nor on a body collapsed onto a line (see
+/// [`crate::linear::multigrid::Multigrid`]'s solve).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MatrixPrecision {

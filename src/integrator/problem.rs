@@ -395,6 +395,13 @@ impl System for Problem<'_, '_> {
         self.ctx.stiffness_damping() > 0.0
     }
 
+    /// Contact pairs (or another later block term) in the Hessian.
+    fn needs_f64(&self) -> bool {
+        self.potential
+            .later_terms_ref()
+            .any(|t| t.hessian_shape(self.ctx) == HessianShape::Blocks)
+    }
+
     fn assemble_projected(&mut self, a: &mut BlockCsr) {
         let exact = !self.is_projected();
         if exact {

@@ -80,6 +80,13 @@ pub trait System {
     fn refresh_while_exact(&self) -> bool {
         false
     }
+    /// Whether A now holds couplings far stiffer than the rest (contact barriers, up to 1e7
+    /// times the elastic blocks where a gap closes), which an f32 A rounds away: the smallest
+    /// eigenvalues of A scaled by its diagonal move by about 6e-8 times that ratio. An
+    /// assembled strategy then stores A in f64 (see [`sparse::Precision`]). Default false.
+    fn needs_f64(&self) -> bool {
+        false
+    }
 }
 
 /// What a strategy has done so far, for `tetsim bench` and the run summary.
@@ -224,24 +231,31 @@ impl AssembledMatrix {
         self.precision
     }
 
-    /// Store A in f64 from the next assembly on (a new storage: the next
-    /// [`AssembledMatrix::assemble`] says the pattern changed).
+    /// Store A in f64 from the next assembly on, whatever [`System::needs_f64`] says (a new
+    /// storage on the same pattern: not a pattern change).
     pub fn use_f64(&mut self) {
         self.precision = sparse::Precision::F64;
         self.a = None;
     }
 
     /// Assemble and constrain A; true when the pattern changed since the last call (the first
-    /// call included).
+    /// call included). An f32 A is stored in f64 while [`System::needs_f64`] (a new storage on
+    /// the same pattern: not a change; a shared hierarchy reads either).
     pub fn assemble(&mut self, system: &mut dyn System, free: &[Vec3]) -> bool {
+        let precision = match self.precision {
+            sparse::Precision::F32 if system.needs_f64() => sparse::Precision::F64,
+            p => p,
+        };
         let pattern = system.pattern();
         let mut changed = self.generation != Some(pattern.generation);
         if let Some(restored) = self.restored.take() {
             changed |= restored != *pattern.pattern;
         }
         if changed || self.a.is_none() {
-            self.a = Some(BlockCsr::zeros_in(pattern.pattern.clone(), self.precision));
+            self.a = Some(BlockCsr::zeros_in(pattern.pattern.clone(), precision));
             self.generation = Some(pattern.generation);
+        } else if let Some(a) = self.a.as_mut().filter(|a| a.precision() != precision) {
+            *a = BlockCsr::zeros_in(std::mem::take(&mut a.pattern), precision);
         }
         let a = self.a.as_mut().expect("made above");
         system.assemble(a);
@@ -397,6 +411,10 @@ mod tests {
         extra: Vec<(usize, usize)>,
         pattern: BlockPattern,
         generation: u64,
+        /// Scales every spring (the mass stays [`MASS`]).
+        stiffness: f64,
+        /// What [`System::needs_f64`] says.
+        needs_f64: bool,
     }
 
     impl Springs {
@@ -426,6 +444,8 @@ mod tests {
                 extra: Vec::new(),
                 pattern: BlockPattern::default(),
                 generation: 0,
+                stiffness: 1.0,
+                needs_f64: false,
             };
             s.set_extra(Vec::new());
             s
@@ -450,7 +470,7 @@ mod tests {
         /// The block of spring (i, j): stiff along the spring, soft across it.
         fn block(&self, i: usize, j: usize, stiffness: f64) -> Mat3 {
             let d = (self.positions[j] - self.positions[i]).normalize();
-            stiffness * (d * d.transpose() + 0.1 * Mat3::identity())
+            self.stiffness * stiffness * (d * d.transpose() + 0.1 * Mat3::identity())
         }
 
         fn springs(&self) -> impl Iterator<Item = (usize, usize, Mat3)> + '_ {
@@ -521,6 +541,10 @@ mod tests {
 
         fn is_projected(&self) -> bool {
             true
+        }
+
+        fn needs_f64(&self) -> bool {
+            self.needs_f64
         }
     }
 
@@ -655,5 +679,101 @@ mod tests {
             assert!(info.converged, "{info:?}");
             assert_eq!(resumed.report().pattern_changes - before, rebuilt);
         }
+    }
+
+    #[test]
+    fn a_breakdown_on_the_f32_matrix_of_a_definite_system_goes_on_in_f64_and_is_kept() {
+        // Springs 1e7 times stiffer than their masses: A = M + K is positive definite, but A's
+        // f32 rounding (6e-8 of 1e7) swamps the mass term along the rigid translations.
+        let side = 6;
+        let n = side * side * side;
+        let params = LinearSolverParams {
+            kind: PreconditionerKind::Amg,
+            amg: amg::AmgParams::default(),
+            f32_matrix: false,
+            matrix_precision: sparse::Precision::F32,
+            cholesky_reuse: true,
+        };
+        let free = vec![Vec3::repeat(1.0); n];
+        let b: Vec<Vec3> = (0..n)
+            .map(|i| Vec3::new(1.0, (i % 5) as f64, 0.5))
+            .collect();
+        let cg = CgParams {
+            tolerance: 1e-6,
+            max_iterations: 5000,
+        };
+        let mut system = Springs::new(side);
+        system.stiffness = 1e7;
+        let mut solver = make_solver(&params, n);
+        let fell_back = |solver: &dyn LinearSolver| match solver.save_state() {
+            state::SolverState::Multigrid(s) => s.f64_fallback,
+            other => panic!("{other:?}"),
+        };
+        assert!(!fell_back(&*solver));
+        solver.prepare(&mut system, &free);
+        let mut x = vec![Vec3::zeros(); n];
+        let info = solver.solve(&mut system, &b, &mut x, &free, &cg).unwrap();
+        assert!(info.converged, "{info:?}");
+        assert!(
+            fell_back(&*solver),
+            "the f32 solve broke down and went on in f64"
+        );
+        // The true residual, by the f64 matrix-free product.
+        let mut ax = vec![Vec3::zeros(); n];
+        system.apply(&x, &mut ax);
+        let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|c| c * c).sum::<f64>().sqrt();
+        let residual = norm(
+            &mut b
+                .iter()
+                .zip(&ax)
+                .flat_map(|(b, a)| (b - a).iter().copied().collect::<Vec<_>>()),
+        );
+        let b_norm = norm(&mut b.iter().flat_map(|v| v.iter().copied().collect::<Vec<_>>()));
+        assert!(residual <= 1e-5 * b_norm, "{residual:e} of {b_norm:e}");
+        // A checkpoint keeps the f64 matrix.
+        let mut resumed = make_solver(&params, n);
+        resumed
+            .restore_state(&solver.save_state(), &system.positions)
+            .unwrap();
+        assert!(fell_back(&*resumed));
+    }
+
+    #[test]
+    fn an_f32_matrix_is_stored_in_f64_while_the_system_needs_it_without_a_new_pattern() {
+        let mut system = Springs::new(4);
+        let n = system.len();
+        let free = vec![Vec3::repeat(1.0); n];
+        let mut exact = BlockCsr::zeros(system.pattern.clone());
+        system.assemble(&mut exact);
+        let mut m = AssembledMatrix::new(false, sparse::Precision::F32);
+        assert!(
+            m.assemble(&mut system, &free),
+            "the first assembly is a new pattern"
+        );
+        let stored = |m: &AssembledMatrix| m.a.as_ref().unwrap().precision();
+        assert_eq!(stored(&m), sparse::Precision::F32);
+        for (needs_f64, precision) in [
+            (true, sparse::Precision::F64),
+            (false, sparse::Precision::F32),
+        ] {
+            system.needs_f64 = needs_f64;
+            assert!(!m.assemble(&mut system, &free), "same pattern");
+            assert_eq!(stored(&m), precision);
+            let a = m.a.as_ref().unwrap();
+            for k in 0..a.pattern.blocks() {
+                let (got, want) = (a.block(k), exact.block(k));
+                match precision {
+                    sparse::Precision::F64 => assert_eq!(got, want, "block {k}"),
+                    // Each addition rounded once to f32.
+                    sparse::Precision::F32 => assert!(
+                        (got - want).amax() <= 1e-6 * want.amax(),
+                        "block {k}: {got} against {want}"
+                    ),
+                }
+            }
+        }
+        m.use_f64();
+        assert!(!m.assemble(&mut system, &free), "same pattern");
+        assert_eq!(stored(&m), sparse::Precision::F64, "whatever the system says");
     }
 }

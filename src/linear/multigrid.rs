@@ -51,6 +51,8 @@ pub struct Multigrid {
     /// CG's starting guess, kept while A is f32 for a solve again in f64 (see
     /// [`Multigrid::solve`]).
     start: Vec<Vec3>,
+    /// Whether A went to f64 after a breakdown on f32 (a checkpoint keeps it).
+    f64_fallback: bool,
     report: SolverReport,
 }
 
@@ -66,6 +68,7 @@ impl Multigrid {
             last_rate: 0.0,
             last_capped: false,
             start: Vec::new(),
+            f64_fallback: false,
             report: SolverReport {
                 name: "amg",
                 ..Default::default()
@@ -201,6 +204,7 @@ impl LinearSolver for Multigrid {
                  matrix is assembled in f64 from here on"
             );
             self.matrix.use_f64();
+            self.f64_fallback = true;
             self.amg = None;
             self.baseline_rate = None;
             self.prepare(system, free);
@@ -279,6 +283,7 @@ impl LinearSolver for Multigrid {
             last_rate: self.last_rate,
             last_capped: self.last_capped,
             counts: [r.builds, r.refreshes, r.pattern_changes],
+            f64_fallback: self.f64_fallback,
         })
     }
 
@@ -321,6 +326,10 @@ impl LinearSolver for Multigrid {
             (None, Some(_)) => return Err("the stored multigrid hierarchy has no matrix".into()),
         }
         self.matrix.restore(s.generation, pattern);
+        if s.f64_fallback {
+            self.matrix.use_f64();
+            self.f64_fallback = true;
+        }
         self.baseline_rate = s.baseline_rate;
         self.last_rate = s.last_rate;
         self.last_capped = s.last_capped;

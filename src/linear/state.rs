@@ -49,6 +49,9 @@ pub struct MultigridState {
     pub last_capped: bool,
     /// Builds, refreshes and pattern changes so far.
     pub counts: [usize; 3],
+    /// Whether A went from f32 to f64 after a CG breakdown (see
+    /// [`super::multigrid::Multigrid`]'s solve).
+    pub f64_fallback: bool,
 }
 
 /// What a multigrid hierarchy was made from.
