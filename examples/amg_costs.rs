@@ -50,7 +50,7 @@ fn main() {
     let t_linearize = started.elapsed().as_secs_f64();
     let h = 1.0 / 30.0;
     // Stored as the solver stores its A.
-    let mut a = BlockCsr::zeros_in(body.stiffness_pattern(), Precision::default());
+    let mut a = BlockCsr::zeros_in(body.stiffness_pattern(), Precision::F32);
     let mut work = AssemblyWork::default();
     let mut t_assemble = Vec::new();
     for _ in 0..3 {

@@ -1,9 +1,10 @@
 //! Block-sparse symmetric matrices with 3×3 blocks (one block per pair of vertices that share a
 //! tet), for the assembled path of the linear solve and for preconditioners that need entries.
 //!
-//! [`BlockCsr`] stores the full pattern (both triangles) in f64: easy to read by rows, used to
-//! build preconditioners. [`UpperF32`] stores one triangle in f32 for the CG product, where
-//! bytes moved per iteration are the cost: about a quarter of the full f64 matrix. Its product
+//! [`BlockCsr`] stores the full pattern (both triangles) in f64 or f32 (see [`Precision`]): easy
+//! to read by rows, used to build preconditioners. [`UpperF32`] stores one triangle in f32 for
+//! the CG product, where bytes moved per iteration are the cost: about a quarter of the full f64
+//! matrix. Its product
 //! is deterministic for any thread count: rows are cut into fixed chunks, each chunk adds the
 //! transposed part that falls outside itself into a private spill buffer, and spills are summed
 //! in chunk order.
@@ -166,14 +167,14 @@ fn split_row_chunks<T: Send>(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Precision {
     /// f64 blocks (72 bytes each).
+    #[default]
     F64,
     /// f32 blocks (36 bytes each); every addition is done in f64 and rounded once.
-    #[default]
     F32,
 }
 
 /// A 3×3 block in f32.
-pub type Mat3f = nalgebra::Matrix3<f32>;
+pub type Mat3f = Matrix3<f32>;
 
 /// The blocks of a [`BlockCsr`], in its [`Precision`].
 #[derive(Clone, Debug, PartialEq)]
