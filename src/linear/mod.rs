@@ -312,7 +312,14 @@ impl AssembledMatrix {
     pub fn add_memory(&self, inventory: &mut crate::memory::Inventory) {
         use crate::memory::vec_bytes;
         if let Some(a) = &self.a {
-            inventory.add("assembled A (f64 blocks, both triangles)", a.block_bytes());
+            let precision = match a.precision() {
+                sparse::Precision::F64 => "f64",
+                sparse::Precision::F32 => "f32",
+            };
+            inventory.add(
+                format!("assembled A ({precision} blocks, both triangles)"),
+                a.block_bytes(),
+            );
             inventory.add(
                 "assembled A's pattern",
                 vec_bytes(&a.pattern.row_start) + vec_bytes(&a.pattern.cols),
@@ -637,13 +644,12 @@ mod tests {
         }
     }
 
-    /// A resumed run numbers its first pattern with the checkpoint's generation: the multigrid
-    /// strategy must see whether the pattern behind that number is still the one it stored
-    /// (contact pairs may have changed it at the step's start), and rebuild exactly when not.
-    #[test]
-    fn a_restored_multigrid_rebuilds_when_the_pattern_behind_its_generation_changed() {
-        let side = 6;
-        let n = side * side * side;
+    /// The f32 multigrid strategy, every DOF free, a right-hand side and CG to `tolerance`, for
+    /// `n` vertices.
+    fn multigrid_case(
+        n: usize,
+        tolerance: f64,
+    ) -> (LinearSolverParams, Vec<Vec3>, Vec<Vec3>, CgParams) {
         let params = LinearSolverParams {
             kind: PreconditionerKind::Amg,
             amg: amg::AmgParams::default(),
@@ -651,14 +657,24 @@ mod tests {
             matrix_precision: sparse::Precision::F32,
             cholesky_reuse: true,
         };
-        let free = vec![Vec3::repeat(1.0); n];
-        let b: Vec<Vec3> = (0..n)
+        let b = (0..n)
             .map(|i| Vec3::new(1.0, (i % 5) as f64, 0.5))
             .collect();
         let cg = CgParams {
-            tolerance: 1e-10,
+            tolerance,
             max_iterations: 5000,
         };
+        (params, vec![Vec3::repeat(1.0); n], b, cg)
+    }
+
+    /// A resumed run numbers its first pattern with the checkpoint's generation: the multigrid
+    /// strategy must see whether the pattern behind that number is still the one it stored
+    /// (contact pairs may have changed it at the step's start), and rebuild exactly when not.
+    #[test]
+    fn a_restored_multigrid_rebuilds_when_the_pattern_behind_its_generation_changed() {
+        let side = 6;
+        let n = side * side * side;
+        let (params, free, b, cg) = multigrid_case(n, 1e-10);
         let mut system = Springs::new(side);
         system.set_extra(vec![(0, n - 1), (1, n - 2)]);
         let mut solver = make_solver(&params, n);
@@ -687,21 +703,7 @@ mod tests {
         // f32 rounding (6e-8 of 1e7) swamps the mass term along the rigid translations.
         let side = 6;
         let n = side * side * side;
-        let params = LinearSolverParams {
-            kind: PreconditionerKind::Amg,
-            amg: amg::AmgParams::default(),
-            f32_matrix: false,
-            matrix_precision: sparse::Precision::F32,
-            cholesky_reuse: true,
-        };
-        let free = vec![Vec3::repeat(1.0); n];
-        let b: Vec<Vec3> = (0..n)
-            .map(|i| Vec3::new(1.0, (i % 5) as f64, 0.5))
-            .collect();
-        let cg = CgParams {
-            tolerance: 1e-6,
-            max_iterations: 5000,
-        };
+        let (params, free, b, cg) = multigrid_case(n, 1e-6);
         let mut system = Springs::new(side);
         system.stiffness = 1e7;
         let mut solver = make_solver(&params, n);
@@ -774,6 +776,10 @@ mod tests {
         }
         m.use_f64();
         assert!(!m.assemble(&mut system, &free), "same pattern");
-        assert_eq!(stored(&m), sparse::Precision::F64, "whatever the system says");
+        assert_eq!(
+            stored(&m),
+            sparse::Precision::F64,
+            "whatever the system says"
+        );
     }
 }
