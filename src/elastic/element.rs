@@ -33,9 +33,10 @@ pub fn corner_gradients(bm: &Mat3) -> [Vec3; 4] {
 pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
     let grads = corner_gradients(bm);
     let vt = tangent.v.transpose();
-    // Row 3(a − 1) + i: the unit displacement (a, i) of corner a = 1, 2, 3.
+    // Row 3(a − 1) + i of z, column 3(a − 1) + i of dzᵀ: the unit displacement (a, i) of
+    // corner a = 1, 2, 3.
     let mut z = [[0.0f64; 9]; 9];
-    let mut dz = [[0.0f64; 9]; 9];
+    let mut dzt = [[0.0f64; 9]; 9];
     for (a, g) in grads[1..].iter().enumerate() {
         let c = vt * g;
         for i in 0..3 {
@@ -50,21 +51,29 @@ pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
                 d[6 + n] = x - y;
             }
             let hd = tangent.diag * Vec3::new(d[0], d[1], d[2]);
-            let e = &mut dz[3 * a + i];
-            e[..3].copy_from_slice(hd.as_slice());
+            let col = 3 * a + i;
+            for m in 0..3 {
+                dzt[m][col] = hd[m];
+            }
             for n in 0..3 {
-                e[3 + n] = 0.5 * tangent.pair_sym[n] * z[3 * a + i][3 + n];
-                e[6 + n] = 0.5 * tangent.pair_skew[n] * z[3 * a + i][6 + n];
+                dzt[3 + n][col] = 0.5 * tangent.pair_sym[n] * z[col][3 + n];
+                dzt[6 + n][col] = 0.5 * tangent.pair_skew[n] * z[col][6 + n];
             }
         }
     }
-    // Blocks (a, b), 1 ≤ a ≤ b ≤ 3, row-major.
-    let gram = |a: usize, b: usize| {
-        Mat3::from_fn(|i, j| {
-            let (p, q) = (&z[3 * (a - 1) + i], &dz[3 * (b - 1) + j]);
-            w * (0..9).map(|m| p[m] * q[m]).sum::<f64>()
-        })
-    };
+    // Z·Dᵀ…: row r of the 9×9 Gram matrix as a sum of rows of dzᵀ, each a 9-wide multiply-add
+    // (vectorised; a dot product per entry is not), summed over m in order.
+    let mut gram = [[0.0f64; 9]; 9];
+    for (row, zr) in gram.iter_mut().zip(&z) {
+        for (&s, dm) in zr.iter().zip(&dzt) {
+            for (g, &d) in row.iter_mut().zip(dm) {
+                *g += s * d;
+            }
+        }
+    }
+    // Blocks (a, b), 1 ≤ a ≤ b ≤ 3.
+    let gram =
+        |a: usize, b: usize| Mat3::from_fn(|i, j| w * gram[3 * (a - 1) + i][3 * (b - 1) + j]);
     let (k11, k12, k13) = (gram(1, 1), gram(1, 2), gram(1, 3));
     let (k22, k23, k33) = (gram(2, 2), gram(2, 3), gram(3, 3));
     let k01 = -(k11 + k12.transpose() + k13.transpose());
