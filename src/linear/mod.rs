@@ -226,11 +226,6 @@ impl AssembledMatrix {
         }
     }
 
-    /// How A is stored.
-    pub fn precision(&self) -> sparse::Precision {
-        self.precision
-    }
-
     /// Store A in f64 from the next assembly on, whatever [`System::needs_f64`] says (a new
     /// storage on the same pattern: not a pattern change).
     pub fn use_f64(&mut self) {

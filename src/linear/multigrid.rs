@@ -192,7 +192,9 @@ impl LinearSolver for Multigrid {
         free: &[Vec3],
         params: &CgParams,
     ) -> Result<CgInfo, CgError> {
-        let f32_projected = self.matrix.precision() == Precision::F32 && system.is_projected();
+        // A as stored now: contact may hold it in f64 already (see `System::needs_f64`).
+        let stored = self.matrix.a.as_ref().map(|a| a.precision());
+        let f32_projected = stored == Some(Precision::F32) && system.is_projected();
         if f32_projected {
             self.start.clear();
             self.start.extend_from_slice(x);
