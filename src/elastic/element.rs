@@ -61,14 +61,15 @@ pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
             }
         }
     }
-    // Z·Dᵀ…: row r of the 9×9 Gram matrix as a sum of rows of dzᵀ, each a 9-wide multiply-add
-    // (vectorised; a dot product per entry is not), summed over m in order.
+    // Z·Dᵀ…: row r of the 9×9 Gram matrix as a sum of rows of dzᵀ, each a multiply-add over
+    // the row's columns (vectorised; a dot product per entry is not), summed over m in order.
+    // Only the blocks at or right of the diagonal are used: block row a from column 3(a − 1).
     let mut gram = [[0.0f64; 9]; 9];
-    for (row, zr) in gram.iter_mut().zip(&z) {
-        for (&s, dm) in zr.iter().zip(&dzt) {
-            for (g, &d) in row.iter_mut().zip(dm) {
-                *g += s * d;
-            }
+    for r in 0..9 {
+        match r / 3 {
+            0 => gram_row::<9>(&mut gram[r], &z[r], &dzt),
+            1 => gram_row::<6>(&mut gram[r], &z[r], &dzt),
+            _ => gram_row::<3>(&mut gram[r], &z[r], &dzt),
         }
     }
     // Blocks (a, b), 1 ≤ a ≤ b ≤ 3.
@@ -82,6 +83,19 @@ pub fn element_stiffness(tangent: &Tangent, bm: &Mat3, w: f64) -> [Mat3; 10] {
     let k00 = -(k01 + k02 + k03);
     let k00 = 0.5 * (k00 + k00.transpose());
     [k00, k01, k02, k03, k11, k12, k13, k22, k23, k33]
+}
+
+/// The last `W` entries of a Gram row: `row += Σₘ zᵣₘ·(dzᵀ)ₘ` over them, in m's order (a width
+/// known at compile time, so the multiply-adds vectorise).
+#[inline(always)]
+fn gram_row<const W: usize>(row: &mut [f64; 9], z: &[f64; 9], dzt: &[[f64; 9]; 9]) {
+    let row: &mut [f64; W] = (&mut row[9 - W..]).try_into().expect("W ≤ 9");
+    for (&s, dm) in z.iter().zip(dzt) {
+        let dm: &[f64; W] = dm[9 - W..].try_into().expect("W ≤ 9");
+        for (g, &d) in row.iter_mut().zip(dm) {
+            *g += s * d;
+        }
+    }
 }
 
 /// Index of block (a, b), a ≤ b, in [`element_stiffness`]'s output.

@@ -215,6 +215,8 @@ pub(crate) fn multiply_add_f32<const R: usize, const C: usize>(
 
 /// `y = Mᵀ·x` for M with f32 blocks `values`, read through the transpose's pattern and map (from
 /// [`Bsr::transpose_pattern`]): the bits of a product with the stored transpose, without it.
+/// (The cycle restricts in P's own order instead, see `restrict.rs`; this is its reference.)
+#[cfg(test)]
 pub(crate) fn multiply_transposed_f32<const R: usize, const C: usize>(
     values: &[Block32<R, C>],
     pattern: &BlockPattern,

@@ -4,8 +4,9 @@
 use super::aggregate::{Aggregates, MODES, NONE, aggregate, strong_neighbours, tentative};
 use super::bsr::{
     Block, Block32, BlockRows, Bsr, ROW_CHUNK, Vector, mirror_lower, mirror_pairs,
-    multiply_add_f32, multiply_transposed_f32, product_pattern, product_with_into,
+    multiply_add_f32, product_pattern, product_with_into,
 };
+use super::restrict::Restriction;
 use super::smoother::{Direct, chebyshev, inverse_diagonal, lanczos_bound};
 use super::{AmgParams, CoarseLevel, DIRECT_LIMIT, LevelInfo};
 use crate::linear::sparse::for_each_row;
@@ -37,6 +38,8 @@ pub(super) struct Transfer<const B: usize> {
     /// number of columns.
     pub(super) pt: Bsr<MODES, B>,
     pub(super) pt_map: Vec<u32>,
+    /// The cycle's `Pᵀ·r`, read in P's row order.
+    pub(super) restriction: Restriction<MODES>,
     /// The pattern of A·P; its values exist only inside [`Level::galerkin`].
     pub(super) ap: Bsr<B, MODES>,
     pub(super) mirror: Vec<(u32, u32)>,
@@ -136,6 +139,7 @@ impl<const B: usize> Level<B> {
         let p = product_pattern(a, &tentative);
         let p32 = vec![Block32::zeros(); p.blocks()];
         let (pt, pt_map) = p.transpose_pattern();
+        let restriction = Restriction::new(&p.pattern, nc);
         let ap = product_pattern(a, &p);
         let mut a_c = product_pattern(&pt, &ap);
         a_c.values = vec![Block::zeros(); a_c.blocks()];
@@ -160,6 +164,7 @@ impl<const B: usize> Level<B> {
             p32,
             pt,
             pt_map,
+            restriction,
             ap,
             mirror,
             dropped,
@@ -297,7 +302,8 @@ impl<const B: usize> Level<B> {
             Coarse::Transfer(t) => {
                 chebyshev(a, dinv, *bounds, *degree, b, x, true, [r, d, d_next]);
                 a.residual(b, x, r);
-                multiply_transposed_f32(&t.p32, &t.pt.pattern, &t.pt_map, r, &mut t.bc);
+                let t = &mut **t;
+                t.restriction.apply(&t.p.pattern, &t.p32, r, &mut t.bc);
                 let (next, below) = rest.split_first_mut().expect("a level below");
                 next.level.cycle(&next.a, &t.bc, &mut t.xc, below);
                 multiply_add_f32(&t.p.pattern, &t.p32, &t.xc, x);
@@ -328,6 +334,7 @@ impl<const B: usize> Level<B> {
                     + vec_bytes(&t.p32)
                     + t.pt.heap_bytes()
                     + vec_bytes(&t.pt_map)
+                    + t.restriction.heap_bytes()
                     + vec_bytes(&t.mirror)
                     + vec_bytes(&t.dropped)
                     + vec_bytes(&t.bc)

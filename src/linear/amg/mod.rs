@@ -36,6 +36,7 @@
 mod aggregate;
 mod bsr;
 mod level;
+mod restrict;
 mod smoother;
 
 use std::time::Instant;
