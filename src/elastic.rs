@@ -19,7 +19,7 @@ use crate::linear::sparse::{BlockCsr, BlockPattern};
 use crate::material::{
     DampedTangent, DampingStiffness, Definiteness, DiagonalPieces, Model, Tangent,
 };
-use crate::math::{LANES, Mat3, Svd, Vec3, svd_rv_lanes};
+use crate::math::{LANES, Mat3, Svd, Vec3, svd_rv_lanes_into};
 use crate::mesh::TetMesh;
 
 mod assembly;
@@ -474,7 +474,7 @@ impl ElasticBody {
     }
 
     /// Call `each(k, &F, &svd_rv(F))` for k = 0, 1, … `count − 1` in order, with F = `f_of(k)`:
-    /// the SVDs are made [`LANES`] at a time by [`svd_rv_lanes`] (the same bits as one at a
+    /// the SVDs are made [`LANES`] at a time by [`svd_rv_lanes_into`](crate::math::svd_rv_lanes_into) (the same bits as one at a
     /// time, in about half the time; a short last group is padded with identities). With
     /// `svd = false` (no material needs one) `each` gets a placeholder.
     #[inline]
@@ -485,25 +485,26 @@ impl ElasticBody {
         f_of: impl Fn(usize) -> Mat3,
         mut each: impl FnMut(usize, &Mat3, &Svd),
     ) {
+        // One buffer for every group: four SVDs returned by value were copied twice.
+        let mut svds = [Svd {
+            u: Mat3::identity(),
+            sigma: Vec3::repeat(1.0),
+            v: Mat3::identity(),
+        }; LANES];
+        let mut f = [Mat3::identity(); LANES];
         let mut start = 0;
         while start < count {
             let n = (count - start).min(LANES);
-            let f: [Mat3; LANES] = std::array::from_fn(|l| {
-                if l < n {
+            for (l, f) in f.iter_mut().enumerate() {
+                *f = if l < n {
                     f_of(start + l)
                 } else {
                     Mat3::identity()
-                }
-            });
-            let svds = if svd {
-                svd_rv_lanes(&f)
-            } else {
-                [Svd {
-                    u: Mat3::identity(),
-                    sigma: Vec3::repeat(1.0),
-                    v: Mat3::identity(),
-                }; LANES]
-            };
+                };
+            }
+            if svd {
+                svd_rv_lanes_into(&f, &mut svds);
+            }
             for l in 0..n {
                 each(start + l, &f[l], &svds[l]);
             }

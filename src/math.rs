@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 mod lanes;
-pub use lanes::{LANES, svd_rv_lanes, sym_eigen3_lanes};
+pub use lanes::{LANES, svd_rv_lanes, svd_rv_lanes_into, sym_eigen3_lanes};
 
 /// A 3-vector of f64.
 pub type Vec3 = Vector3<f64>;
@@ -108,8 +108,14 @@ pub fn sym_eigen3(a: &Mat3) -> (Vec3, Mat3) {
 
 /// Sort eigenpairs by descending eigenvalue and make the eigenvector basis a proper rotation.
 fn sort_descending(lambda: Vec3, q: Mat3) -> (Vec3, Mat3) {
+    // A stable sort of three by strict compare-and-swap (what `sort_by` gave, without its
+    // general machinery, which cost 8 % of the element loop).
     let mut order = [0usize, 1, 2];
-    order.sort_by(|&a, &b| lambda[b].total_cmp(&lambda[a]));
+    for (a, b) in [(0, 1), (1, 2), (0, 1)] {
+        if lambda[order[b]].total_cmp(&lambda[order[a]]).is_gt() {
+            order.swap(a, b);
+        }
+    }
     let mut sorted_q =
         Mat3::from_columns(&[q.column(order[0]), q.column(order[1]), q.column(order[2])]);
     if sorted_q.determinant() < 0.0 {

@@ -122,11 +122,14 @@ impl ElasticBody {
                 let first = c * CHUNK;
                 let g_in_chunk = |k: usize| g_of(first + k);
                 self.with_svds(svd, tangents.len(), g_in_chunk, |k, g, s| {
-                    let (tangent, exact) = self.model_of(first + k).damped_tangent_svd(g, s, &how);
-                    tangents[k] = tangent;
-                    if let Some(alternate) = alternate.as_deref_mut() {
-                        alternate[k] = exact;
-                    }
+                    let exact = alternate.as_deref_mut().map(|a| &mut a[k]);
+                    self.model_of(first + k).damped_tangent_svd_into(
+                        g,
+                        s,
+                        &how,
+                        &mut tangents[k],
+                        exact,
+                    );
                 });
             });
         lin.tangents_pending = false;

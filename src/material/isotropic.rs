@@ -287,6 +287,50 @@ impl<M: Isotropic> Invertible<M> {
         self.newton_tangent(&svd.u, &svd.v, &svd.sigma, &d, &at_g, how)
     }
 
+    /// [`Invertible::damped_tangent_svd`] written into `out` and, if given, `exact` (the same
+    /// bits; the element loop's form: a tangent and its pieces returned by value, 392 bytes,
+    /// were copied on their way into the per-tet arrays).
+    #[inline]
+    pub fn damped_tangent_svd_into(
+        &self,
+        svd: &Svd,
+        how: &DampedTangent,
+        out: &mut Tangent,
+        exact: Option<&mut DiagonalPieces>,
+    ) {
+        let strategy = match how.definiteness {
+            Definiteness::Adaptive => Definiteness::Projected,
+            other => other,
+        };
+        if strategy != how.damping.definiteness() {
+            let (tangent, pieces) = self.damped_tangent_svd(svd, how);
+            *out = tangent;
+            if let Some(exact) = exact {
+                *exact = pieces;
+            }
+            return;
+        }
+        // Newton's tangent is the damping stiffness's, its pieces scaled by 1 + w (as
+        // `newton_tangent` adds w·K_d to a copy of K_d).
+        let d = self.model.derivatives(&svd.sigma);
+        self.tangent_at_into(&svd.u, &svd.v, &svd.sigma, &d, strategy, out);
+        let w = how.weight;
+        let (diag, sym, skew) = (out.diag, out.pair_sym, out.pair_skew);
+        if let Some(exact) = exact {
+            if how.definiteness == Definiteness::Adaptive {
+                // The exact pieces plus w·K_d, as `newton_tangent` makes them.
+                exact.diag = d.h + w * diag;
+                exact.pair_sym = d.pair_sym + w * sym;
+                exact.pair_skew = d.pair_skew + w * skew;
+            } else {
+                *exact = DiagonalPieces::default();
+            }
+        }
+        out.diag += w * diag;
+        out.pair_sym += w * sym;
+        out.pair_skew += w * skew;
+    }
+
     /// Newton's tangent `N + w·K_d` at one σ (U, V, derivatives d), given the damping
     /// stiffness's tangent there; for `adaptive` also the exact pieces plus `w·K_d`.
     #[inline]
@@ -341,6 +385,29 @@ impl<M: Isotropic> Invertible<M> {
         };
         tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
+    }
+
+    /// [`Invertible::tangent_at`] written into `out`.
+    #[inline]
+    fn tangent_at_into(
+        &self,
+        u: &Mat3,
+        v: &Mat3,
+        s: &Vec3,
+        d: &Derivatives,
+        def: Definiteness,
+        out: &mut Tangent,
+    ) {
+        out.u = *u;
+        out.v = *v;
+        out.diag = d.h;
+        out.pair_sym = d.pair_sym;
+        out.pair_skew = d.pair_skew;
+        out.clamped = 0;
+        out.indefinite = 0;
+        out.inverted = s[2] <= 0.0;
+        out.strongly_clamped = false;
+        out.make_definite(def, || self.model.block_eigensystem(s, &d.h));
     }
 }
 

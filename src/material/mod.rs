@@ -690,6 +690,29 @@ impl Model {
     ) -> (Tangent, DiagonalPieces) {
         with_svd_model!(self, m => m.damped_tangent_svd(svd, how), l => l.damped_tangent(g, how))
     }
+
+    /// [`Model::damped_tangent_svd`] written into `out` and, if given, `exact` (the same bits).
+    #[inline]
+    pub fn damped_tangent_svd_into(
+        &self,
+        g: &Mat3,
+        svd: &Svd,
+        how: &DampedTangent,
+        out: &mut Tangent,
+        exact: Option<&mut DiagonalPieces>,
+    ) {
+        with_svd_model!(
+            self,
+            m => m.damped_tangent_svd_into(svd, how, out, exact),
+            l => {
+                let (tangent, pieces) = l.damped_tangent(g, how);
+                *out = tangent;
+                if let Some(exact) = exact {
+                    *exact = pieces;
+                }
+            }
+        )
+    }
 }
 
 impl Material for Model {

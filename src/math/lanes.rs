@@ -30,6 +30,17 @@ pub const LANES: usize = 4;
 
 /// [`sym_eigen3`](super::sym_eigen3) of [`LANES`] symmetric matrices, with the same bits.
 pub fn sym_eigen3_lanes(a: &[Mat3; LANES]) -> [(Vec3, Mat3); LANES] {
+    let mut out = [(Vec3::zeros(), Mat3::zeros()); LANES];
+    for (o, (lambda, q)) in out.iter_mut().zip(jacobi_lanes(a)) {
+        *o = sort_descending(lambda, q);
+    }
+    out
+}
+
+/// The Jacobi sweeps of [`sym_eigen3_lanes`], before sorting: each lane's eigenvalues and
+/// eigenvectors (columns) as the sweeps leave them.
+#[inline(always)]
+fn jacobi_lanes(a: &[Mat3; LANES]) -> [(Vec3, Mat3); LANES] {
     let (mut d, mut off) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
     let (mut tolerance, mut rotating) = ([0.0; LANES], [0.0; LANES]);
     for l in 0..LANES {
@@ -84,33 +95,64 @@ pub fn sym_eigen3_lanes(a: &[Mat3; LANES]) -> [(Vec3, Mat3); LANES] {
     }
     let d = d.map(f64x4::to_array);
     let q = q.map(|row| row.map(f64x4::to_array));
-    std::array::from_fn(|l| {
-        let lambda = Vec3::new(d[0][l], d[1][l], d[2][l]);
-        sort_descending(lambda, Mat3::from_fn(|i, j| q[i][j][l]))
-    })
+    let mut out = [(Vec3::zeros(), Mat3::zeros()); LANES];
+    for (l, (lambda, v)) in out.iter_mut().enumerate() {
+        *lambda = Vec3::new(d[0][l], d[1][l], d[2][l]);
+        for i in 0..3 {
+            for j in 0..3 {
+                v[(i, j)] = q[i][j][l];
+            }
+        }
+    }
+    out
 }
 
 /// [`svd_rv`](super::svd_rv) of [`LANES`] matrices, with the same bits: the eigen-solves of
 /// FᵀF in lock-step, then the Givens QRs of F·V in lock-step.
 pub fn svd_rv_lanes(f: &[Mat3; LANES]) -> [Svd; LANES] {
-    let gram: [Mat3; LANES] = std::array::from_fn(|l| f[l].transpose() * f[l]);
-    let eigen = sym_eigen3_lanes(&gram);
-    qr_lanes(f, std::array::from_fn(|l| eigen[l].1))
+    let mut out = [Svd {
+        u: Mat3::zeros(),
+        sigma: Vec3::zeros(),
+        v: Mat3::zeros(),
+    }; LANES];
+    svd_rv_lanes_into(f, &mut out);
+    out
 }
 
-/// [`svd_from_v`](super::svd_from_v) in lanes: each Givens rotation (a sqrt and two divisions)
-/// of the four QRs together, a rotation the scalar code skips (h = 0) blended away.
-fn qr_lanes(f: &[Mat3; LANES], v: [Mat3; LANES]) -> [Svd; LANES] {
-    let fv: [Mat3; LANES] = std::array::from_fn(|l| f[l] * v[l]);
+/// [`svd_rv_lanes`] into `out` (the element loops keep one buffer: returning four SVDs, 672
+/// bytes, by value cost the evaluation a sixth of its time in copies).
+#[inline]
+pub fn svd_rv_lanes_into(f: &[Mat3; LANES], out: &mut [Svd; LANES]) {
+    let mut gram = [Mat3::zeros(); LANES];
+    for (g, f) in gram.iter_mut().zip(f) {
+        *g = f.transpose() * f;
+    }
+    for (o, (lambda, q)) in out.iter_mut().zip(jacobi_lanes(&gram)) {
+        (o.sigma, o.v) = sort_descending(lambda, q);
+    }
+    qr_lanes(f, out);
+}
+
+/// [`svd_from_v`](super::svd_from_v) in lanes, V read from `out` and U and σ written there:
+/// each Givens rotation (a sqrt and two divisions) of the four QRs together, a rotation the
+/// scalar code skips (h = 0) blended away.
+#[inline(always)]
+fn qr_lanes(f: &[Mat3; LANES], out: &mut [Svd; LANES]) {
     let zero = f64x4::ZERO;
     // b[row][col] = F·V, ut[row][col] accumulates Qᵀ = G₃G₂G₁ from the identity.
-    let mut b = [[zero; 3]; 3];
-    let mut ut = [[zero; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            b[i][j] = f64x4::new(std::array::from_fn(|l| fv[l][(i, j)]));
+    let mut fv = [[[0.0; LANES]; 3]; 3];
+    for l in 0..LANES {
+        let m = f[l] * out[l].v;
+        for i in 0..3 {
+            for j in 0..3 {
+                fv[i][j][l] = m[(i, j)];
+            }
         }
-        ut[i][i] = f64x4::ONE;
+    }
+    let mut b = fv.map(|row| row.map(f64x4::new));
+    let mut ut = [[zero; 3]; 3];
+    for (i, row) in ut.iter_mut().enumerate() {
+        row[i] = f64x4::ONE;
     }
     for (col, p, r) in GIVENS {
         let (x, y) = (b[p][col], b[r][col]);
@@ -128,12 +170,15 @@ fn qr_lanes(f: &[Mat3; LANES], v: [Mat3; LANES]) -> [Svd; LANES] {
     }
     let b = b.map(|row| row.map(f64x4::to_array));
     let ut = ut.map(|row| row.map(f64x4::to_array));
-    std::array::from_fn(|l| {
-        let sigma = Vec3::new(b[0][0][l], b[1][1][l], b[2][2][l]);
-        let mut u = Mat3::from_fn(|i, j| ut[j][i][l]);
-        align_null_pair(&mut u, &v[l], &sigma);
-        Svd { u, sigma, v: v[l] }
-    })
+    for (l, o) in out.iter_mut().enumerate() {
+        o.sigma = Vec3::new(b[0][0][l], b[1][1][l], b[2][2][l]);
+        for i in 0..3 {
+            for j in 0..3 {
+                o.u[(i, j)] = ut[j][i][l];
+            }
+        }
+        align_null_pair(&mut o.u, &o.v, &o.sigma);
+    }
 }
 
 #[cfg(test)]

@@ -86,7 +86,7 @@ pub fn check_shifted_tangent(model: &Model, seed: u64) {
 
 /// The damping stress K_d(F):dF_v depends on the damping stiffness only, never on Newton's
 /// definiteness strategy or the shift; Newton's tangent is the strategy's plus w·K_d, at the
-/// shifted F.
+/// shifted F (and written in place, as the element loop does, the same bits).
 pub fn check_damping_is_strategy_free(model: &Model, seed: u64) {
     let mut rng = rng(seed);
     let (weight, shift) = weight_and_shift();
@@ -117,6 +117,18 @@ pub fn check_damping_is_strategy_free(model: &Model, seed: u64) {
                         let want = model.tangent(&g, newton_def).apply(&df)
                             + weight * model.tangent(&g, damping.definiteness()).apply(&df);
                         let got = e.tangent.apply(&df);
+                        // The element loop's in-place form gives the same bits as by value.
+                        let svd = tetsim::math::svd_rv(&g);
+                        let (tangent, exact) = model.damped_tangent_svd(&g, &svd, &how);
+                        let mut into = (model.tangent(&f, Definiteness::Exact), Default::default());
+                        model.damped_tangent_svd_into(
+                            &g,
+                            &svd,
+                            &how,
+                            &mut into.0,
+                            Some(&mut into.1),
+                        );
+                        assert_eq!(into, (tangent, exact), "{definiteness} {damping} θ = {s}");
                         let scale = want.norm().max(stress_scale(lame()));
                         assert!(
                             (got - want).norm() <= 1e-10 * scale,
