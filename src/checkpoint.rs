@@ -25,7 +25,7 @@ use crate::linear::state::SolverState;
 pub const FILE_NAME: &str = "checkpoint.bin";
 
 /// The layout version of [`Checkpoint`]; a change of the structs below bumps it.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 
 const MAGIC: &[u8; 8] = b"TETSIMCK";
 

@@ -43,23 +43,33 @@ impl ElasticBody {
         }
         let how = damping.tangent(lin.definiteness);
         let shifted = damping.shift != 0.0;
-        // One tet, given F and its SVD: its force and K_d·v slots; returns W·Ψ and, without a
-        // shift, Newton's tangent and `adaptive`'s exact pieces.
-        let kernel = |t: usize, f: &Mat3, svd: &Svd, slot: &mut TetSlot, kv: &mut TetSlot| {
+        // One tet, given F and its SVD: its force and K_d·v slots, and without a shift Newton's
+        // tangent and `adaptive`'s exact pieces (written in place: returned by value they were
+        // copied); returns W·Ψ.
+        let kernel = |t: usize,
+                      f: &Mat3,
+                      svd: &Svd,
+                      slot: &mut TetSlot,
+                      kv: &mut TetSlot,
+                      tangent: &mut Tangent,
+                      exact: Option<&mut DiagonalPieces>| {
             let (bm, w) = (&self.bm[t], self.volume[t]);
             let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * bm;
             let model = self.model_of(t);
-            let (psi, stress, dp, tangent) = if shifted {
-                let (psi, stress, dp) = model.damping_stress_svd(f, svd, &df_v, how.damping);
-                (psi, stress, dp, None)
+            let (psi, stress, dp) = if shifted {
+                model.damping_stress_svd(f, svd, &df_v, how.damping)
             } else {
                 let e = model.evaluate_damped_unshifted(f, svd, &df_v, &how);
-                (e.psi, e.stress, e.damping, Some((e.tangent, e.exact)))
+                *tangent = e.tangent;
+                if let Some(exact) = exact {
+                    *exact = e.exact;
+                }
+                (e.psi, e.stress, e.damping)
             };
             *slot = slot_of(tet_forces(&stress, bm, w));
             // K_d·v = −(the force differential along v), as in `apply_stiffness`.
             *kv = slot_of(tet_forces(&(-dp), bm, w));
-            (w * psi, tangent)
+            w * psi
         };
         let svd = self.uses_svd();
         let alternate = alternate_chunks(&mut lin.alternate, lin.tangents.len());
@@ -75,14 +85,16 @@ impl ElasticBody {
                 let mut sum = 0.0;
                 let f_of = |k: usize| self.deformation_gradient(x, first + k);
                 self.with_svds(svd, tangents.len(), f_of, |k, f, s| {
-                    let (psi, tan) = kernel(first + k, f, s, &mut buffer[k], &mut kv[k]);
-                    sum += psi;
-                    if let Some((tan, exact)) = tan {
-                        tangents[k] = tan;
-                        if let Some(alternate) = alternate.as_deref_mut() {
-                            alternate[k] = exact;
-                        }
-                    }
+                    let exact = alternate.as_deref_mut().map(|a| &mut a[k]);
+                    sum += kernel(
+                        first + k,
+                        f,
+                        s,
+                        &mut buffer[k],
+                        &mut kv[k],
+                        &mut tangents[k],
+                        exact,
+                    );
                 });
                 *energy = sum;
             });

@@ -226,7 +226,7 @@ impl LinearSolver for Multigrid {
     /// The block matrix, and the V-cycle's matrices: each level read 2·degree + 1 times
     /// (Chebyshev pre- and post-smoothing and the residual), 8 bytes per stored entry plus its
     /// index share; a shared finest level reads the system's A as stored (4 bytes an entry in
-    /// f32).
+    /// f32), the coarse levels theirs.
     fn bytes_per_iteration(&self, _matrix_free_bytes: f64) -> f64 {
         let reads = (2 * self.params.smoother_degree + 1) as f64;
         let preconditioner = self.amg.as_ref().map_or(0.0, |amg| {
@@ -234,12 +234,13 @@ impl LinearSolver for Multigrid {
                 (None, Some(a)) => a.bytes_per_block() as f64 / 9.0,
                 _ => 8.0,
             };
+            let coarse_entry = if amg.coarse_f32() { 4.0 } else { 8.0 };
             amg.info()
                 .levels
                 .iter()
                 .enumerate()
                 .map(|(depth, l)| {
-                    let entry = if depth == 0 { fine_entry } else { 8.0 };
+                    let entry = if depth == 0 { fine_entry } else { coarse_entry };
                     reads * l.nonzeros as f64 * (entry + 4.0 / (l.block_size * l.block_size) as f64)
                 })
                 .sum::<f64>()
@@ -272,6 +273,7 @@ impl LinearSolver for Multigrid {
                     bounds: numbers.bounds,
                     prolongator: numbers.prolongator,
                     second: numbers.second,
+                    coarse_f32: numbers.coarse_f32,
                 }))
             }
             None => None,
@@ -314,6 +316,7 @@ impl LinearSolver for Multigrid {
                         bounds: h.bounds,
                         prolongator: h.prolongator.clone(),
                         second: h.second.clone(),
+                        coarse_f32: h.coarse_f32,
                     };
                     Amg::restored(pattern, rest, &free, &self.params, &h.aggregates, &numbers)
                 } else {

@@ -76,6 +76,8 @@ pub struct HierarchyState {
     pub prolongator: Vec<f64>,
     /// See [`HierarchyState::dinv`].
     pub second: Vec<f64>,
+    /// Whether the coarse matrices were stored in f32 (`second` then holds f32 values).
+    pub coarse_f32: bool,
 }
 
 /// Blocks as plain arrays (column-major), bit for bit.

@@ -270,7 +270,9 @@ impl<const B: usize> Level<B> {
         let mut coarse = std::mem::replace(&mut self.coarse, Coarse::Smooth);
         if let Coarse::Transfer(t) = &mut coarse {
             let (next, below) = rest.split_first_mut().expect("a level below");
-            self.galerkin(a, t, &mut next.a, params);
+            let mut a_c = next.a.lend();
+            self.galerkin(a, t, &mut a_c, params);
+            next.a.store(a_c);
             next.level.refresh(&next.a, params, below);
         } else {
             coarse = coarsest(a, params);

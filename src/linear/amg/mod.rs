@@ -35,6 +35,7 @@
 
 mod aggregate;
 mod bsr;
+mod coarse;
 mod level;
 mod restrict;
 mod smoother;
@@ -43,9 +44,10 @@ use std::time::Instant;
 
 use self::aggregate::{Aggregates, MODES, NONE};
 use self::bsr::{Block, Bsr};
+use self::coarse::CoarseMatrix;
 use self::level::{Coarse, Level, LevelMemory};
 use crate::linear::cg::Preconditioner;
-use crate::linear::sparse::{BlockCsr, BlockPattern};
+use crate::linear::sparse::{BlockCsr, BlockPattern, Precision};
 use crate::math::{Mat3, Vec3};
 
 /// Largest coarsest level (DOFs) factored densely when coarsening stalls above
@@ -134,13 +136,15 @@ pub struct Amg {
     fine_a: Option<Bsr<3, 3>>,
     fine: Level<3>,
     coarse: Vec<CoarseLevel>,
+    /// Whether `coarse` holds its matrices in f32 (built on an f32 A; see `coarse.rs`).
+    coarse_f32: bool,
     info: AmgInfo,
 }
 
 /// A level below the finest: its matrix (a Galerkin product, the hierarchy's own) and the rest.
 #[derive(Clone, Debug)]
 struct CoarseLevel {
-    a: Bsr<6, 6>,
+    a: CoarseMatrix,
     level: Level<6>,
 }
 
@@ -157,6 +161,9 @@ pub struct FineNumbers {
     pub prolongator: Vec<f64>,
     /// The second level's matrix blocks (6×6, column-major, 36 numbers each).
     pub second: Vec<f64>,
+    /// Whether the coarse matrices are stored in f32 (see `coarse.rs`): a hierarchy built on
+    /// an f32 A.
+    pub coarse_f32: bool,
 }
 
 impl Amg {
@@ -211,7 +218,12 @@ impl Amg {
         // the aggregates only: build it on a stand-in A (identity blocks on the diagonal), then
         // put the stored numbers in and recompute the levels below from the second one's A, as
         // the refresh that made them did.
-        let mut stand_in = BlockCsr::zeros(pattern.clone());
+        let precision = if numbers.coarse_f32 {
+            Precision::F32
+        } else {
+            Precision::F64
+        };
+        let mut stand_in = BlockCsr::zeros_in(pattern.clone(), precision);
         stand_in.add_diagonal(&vec![1.0; n]);
         let mut amg = Self::build(&stand_in, positions, free, params, Some(&given), true);
         let Coarse::Transfer(t) = &mut amg.fine.coarse else {
@@ -219,7 +231,7 @@ impl Amg {
         };
         let second = amg.coarse.first_mut()?;
         if numbers.prolongator.len() != 18 * t.p32.len()
-            || numbers.second.len() != 36 * second.a.values.len()
+            || numbers.second.len() != 36 * second.a.blocks()
         {
             return None;
         }
@@ -228,9 +240,7 @@ impl Amg {
         for (block, stored) in t.p32.iter_mut().zip(numbers.prolongator.chunks(18)) {
             *block = Block::<3, MODES>::from_column_slice(stored).cast::<f32>();
         }
-        for (block, stored) in second.a.values.iter_mut().zip(numbers.second.chunks(36)) {
-            *block = Block::from_column_slice(stored);
-        }
+        second.a.set_column_major(&numbers.second);
         let (second, below) = amg.coarse.split_first_mut().expect("checked above");
         second.level.refresh(&second.a, params, below);
         let setup = amg.info.setup_seconds;
@@ -257,12 +267,8 @@ impl Amg {
                 .iter()
                 .flat_map(|b| b.iter().map(|&x| x as f64))
                 .collect(),
-            second: second
-                .a
-                .values
-                .iter()
-                .flat_map(|b| b.iter().copied())
-                .collect(),
+            second: second.a.column_major(),
+            coarse_f32: self.coarse_f32,
         })
     }
 
@@ -314,8 +320,10 @@ impl Amg {
             ncols: n,
         });
         let mut coarse: Vec<CoarseLevel> = Vec::new();
+        let coarse_f32 = a.precision() == Precision::F32;
         while let Some((a_c, nullspace_c, mask_c)) = next {
             let depth = coarse.len() + 1;
+            let a_c = CoarseMatrix::new(a_c, coarse_f32);
             let (level, more) = Level::build(&a_c, &nullspace_c, mask_c, params, depth, given);
             coarse.push(CoarseLevel { a: a_c, level });
             next = more;
@@ -325,6 +333,7 @@ impl Amg {
             fine_a,
             fine,
             coarse,
+            coarse_f32,
             info: AmgInfo::default(),
         };
         amg.info = amg.describe();
@@ -387,6 +396,11 @@ impl Amg {
             "AMG: coarse levels (matrices, transfers, vectors, factor)",
             coarse.matrix + coarse.vectors + coarse.transfer + coarse.product,
         );
+    }
+
+    /// Whether the levels below the finest hold their matrices in f32 (see `coarse.rs`).
+    pub fn coarse_f32(&self) -> bool {
+        self.coarse_f32
     }
 
     /// Levels, sizes, operator complexity and timings.

@@ -203,9 +203,28 @@ fn same_bits_on_one_and_two_threads() {
 /// the finest level's numbers) rebuilds it bit for bit after a refresh, without that A.
 #[test]
 fn a_shared_hierarchy_matches_a_copying_one_and_is_restored_from_its_numbers() {
-    let s = beam(3, 0.0);
-    let bent = beam(3, 0.5);
-    let more = beam(3, 0.7);
+    for precision in [Precision::F64, Precision::F32] {
+        shared_hierarchy_case(precision);
+    }
+}
+
+/// `a` stored in `precision`.
+fn stored_in(a: &BlockCsr, precision: Precision) -> BlockCsr {
+    let mut out = BlockCsr::zeros_in(a.pattern.clone(), precision);
+    for k in 0..a.pattern.blocks() {
+        out.blocks_mut().set(k, &a.block(k));
+    }
+    out
+}
+
+/// The shared and copying hierarchies agree and a restore gives the same bits, with A (and so
+/// the coarse matrices) in `precision`.
+fn shared_hierarchy_case(precision: Precision) {
+    let [s, bent, more] = [0.0, 0.5, 0.7].map(|bend| {
+        let mut system = beam(3, bend);
+        system.a = stored_in(&system.a, precision);
+        system
+    });
     let params = AmgParams::default();
     let n = s.a.rows();
     let r = test_vector(n, 4, &s.free);
@@ -220,6 +239,7 @@ fn a_shared_hierarchy_matches_a_copying_one_and_is_restored_from_its_numbers() {
     assert_eq!(cycle(&mut shared, &s.a), cycle(&mut copying, &s.a));
     shared.refresh(&bent.a);
     let numbers = shared.fine_numbers().expect("several levels");
+    assert_eq!(numbers.coarse_f32, precision == Precision::F32);
     let mut restored = Amg::restored(
         &s.a.pattern,
         &s.positions,
@@ -253,8 +273,24 @@ fn a_shared_hierarchy_matches_a_copying_one_and_is_restored_from_its_numbers() {
 /// it was not refreshed with.
 #[test]
 fn a_shared_v_cycle_with_a_later_matrix_is_symmetric_and_positive() {
+    for precision in [Precision::F64, Precision::F32] {
+        symmetric_case(precision);
+    }
+}
+
+/// [`a_shared_v_cycle_with_a_later_matrix_is_symmetric_and_positive`] with A and the coarse
+/// matrices in `precision`.
+fn symmetric_case(precision: Precision) {
     let s = beam(3, 0.3);
+    let s = System {
+        a: stored_in(&s.a, precision),
+        ..s
+    };
     let later = beam(3, 0.6);
+    let later = System {
+        a: stored_in(&later.a, precision),
+        ..later
+    };
     let n = s.a.rows();
     let mut amg = Amg::new_shared(&s.a, &s.positions, &s.free, &AmgParams::default());
     let mut apply = |r: &[Vec3]| {
