@@ -372,17 +372,7 @@ impl<M: Isotropic> Invertible<M> {
         d: &Derivatives,
         def: Definiteness,
     ) -> Tangent {
-        let mut tangent = Tangent {
-            u: *u,
-            v: *v,
-            diag: d.h,
-            pair_sym: d.pair_sym,
-            pair_skew: d.pair_skew,
-            clamped: 0,
-            indefinite: 0,
-            inverted: s[2] <= 0.0,
-            strongly_clamped: false,
-        };
+        let mut tangent = unfixed_tangent(u, v, s, d);
         tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
     }
@@ -398,16 +388,24 @@ impl<M: Isotropic> Invertible<M> {
         def: Definiteness,
         out: &mut Tangent,
     ) {
-        out.u = *u;
-        out.v = *v;
-        out.diag = d.h;
-        out.pair_sym = d.pair_sym;
-        out.pair_skew = d.pair_skew;
-        out.clamped = 0;
-        out.indefinite = 0;
-        out.inverted = s[2] <= 0.0;
-        out.strongly_clamped = false;
+        *out = unfixed_tangent(u, v, s, d);
         out.make_definite(def, || self.model.block_eigensystem(s, &d.h));
+    }
+}
+
+/// The exact tangent at σ (U, V, derivatives d), before any definiteness fix.
+#[inline(always)]
+fn unfixed_tangent(u: &Mat3, v: &Mat3, s: &Vec3, d: &Derivatives) -> Tangent {
+    Tangent {
+        u: *u,
+        v: *v,
+        diag: d.h,
+        pair_sym: d.pair_sym,
+        pair_skew: d.pair_skew,
+        clamped: 0,
+        indefinite: 0,
+        inverted: s[2] <= 0.0,
+        strongly_clamped: false,
     }
 }
 

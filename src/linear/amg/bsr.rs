@@ -373,7 +373,7 @@ pub(crate) fn dot<const B: usize>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn dense<const R: usize, const C: usize>(m: &Bsr<R, C>) -> nalgebra::DMatrix<f64> {
@@ -387,14 +387,19 @@ mod tests {
         d
     }
 
-    fn sample<const R: usize, const C: usize>(rows: usize, ncols: usize, seed: u64) -> Bsr<R, C> {
+    /// A small deterministic generator of test numbers (an LCG's high bits).
+    pub(crate) fn lcg(seed: u64) -> impl FnMut() -> usize {
         let mut s = seed;
-        let mut next = move || {
+        move || {
             s = s
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (s >> 33) as usize
-        };
+        }
+    }
+
+    fn sample<const R: usize, const C: usize>(rows: usize, ncols: usize, seed: u64) -> Bsr<R, C> {
+        let mut next = lcg(seed);
         let pattern: Vec<Vec<u32>> = (0..rows)
             .map(|_| {
                 let mut r: Vec<u32> = (0..3).map(|_| (next() % ncols) as u32).collect();

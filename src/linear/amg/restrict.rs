@@ -120,16 +120,11 @@ impl<const C: usize> Restriction<C> {
 mod tests {
     use super::*;
     use crate::linear::amg::bsr::multiply_transposed_f32;
+    use crate::linear::amg::bsr::tests::lcg;
 
     /// A P of `rows` fine rows over `ncols` coarse ones, reaching near and far columns.
     fn random_p(rows: usize, ncols: usize) -> (Bsr<3, 6>, Vec<Block32<3, 6>>) {
-        let mut seed = 11u64;
-        let mut next = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) as usize
-        };
+        let mut next = lcg(11);
         let lists: Vec<Vec<u32>> = (0..rows)
             .map(|i| {
                 // Empty rows too (constrained DOFs), and columns far from the row's own.
