@@ -131,7 +131,7 @@ mod tests {
                 let mut cols: Vec<u32> = (0..next() % 5)
                     .map(|_| {
                         let near = i * ncols / rows;
-                        if next() % 7 == 0 {
+                        if next().is_multiple_of(7) {
                             next() % ncols
                         } else {
                             (near + next() % 3).min(ncols - 1)
