@@ -395,6 +395,11 @@ impl System for Problem<'_, '_> {
         self.ctx.stiffness_damping() > 0.0
     }
 
+    /// A contact (or another later) term, pairs or not.
+    fn may_need_f64(&self) -> bool {
+        self.potential.later_terms_ref().next().is_some()
+    }
+
     /// Contact pairs (or another later block term) in the Hessian.
     fn needs_f64(&self) -> bool {
         self.potential

@@ -106,6 +106,13 @@ impl Multigrid {
 impl LinearSolver for Multigrid {
     fn prepare(&mut self, system: &mut dyn System, free: &[Vec3]) {
         let started = std::time::Instant::now();
+        let coarse_f32 = !system.may_need_f64();
+        if self.params.coarse_f32 != coarse_f32 {
+            self.params.coarse_f32 = coarse_f32;
+            if let Some(amg) = &mut self.amg {
+                amg.allow_coarse_f32(coarse_f32);
+            }
+        }
         let new_pattern = self.matrix.assemble(system, free);
         let assembled = std::time::Instant::now();
         // One iteration of slack per decade, so that 2 → 4 iterations does not count as growth.

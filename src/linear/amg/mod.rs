@@ -82,6 +82,10 @@ pub struct AmgParams {
     pub max_levels: usize,
     /// Lanczos steps for the spectral bound of each level. Default 10.
     pub lanczos_steps: usize,
+    /// Store the levels below the finest in f32 when the hierarchy is built or refreshed on an
+    /// f32 A (see `coarse.rs`). Default true; the multigrid solver turns it off for systems
+    /// that may hold contact ([`crate::linear::System::may_need_f64`]).
+    pub coarse_f32: bool,
 }
 
 impl Default for AmgParams {
@@ -94,6 +98,7 @@ impl Default for AmgParams {
             max_coarse_dofs: 600,
             max_levels: 10,
             lanczos_steps: 10,
+            coarse_f32: true,
         }
     }
 }
@@ -320,7 +325,7 @@ impl Amg {
             ncols: n,
         });
         let mut coarse: Vec<CoarseLevel> = Vec::new();
-        let coarse_f32 = a.precision() == Precision::F32;
+        let coarse_f32 = params.coarse_f32 && a.precision() == Precision::F32;
         while let Some((a_c, nullspace_c, mask_c)) = next {
             let depth = coarse.len() + 1;
             let a_c = CoarseMatrix::new(a_c, coarse_f32);
@@ -346,6 +351,14 @@ impl Amg {
     pub fn refresh(&mut self, a: &BlockCsr) {
         let started = Instant::now();
         assert_eq!(a.pattern.blocks(), self.fine.blocks, "same pattern");
+        // The coarse levels follow A's storage (see `coarse.rs`), as a fresh build would.
+        let coarse_f32 = self.params.coarse_f32 && a.precision() == Precision::F32;
+        if coarse_f32 != self.coarse_f32 {
+            self.coarse
+                .iter_mut()
+                .for_each(|l| l.a.set_precision(coarse_f32));
+            self.coarse_f32 = coarse_f32;
+        }
         match &mut self.fine_a {
             Some(own) => {
                 own.values = a.blocks_f64();
@@ -396,6 +409,11 @@ impl Amg {
             "AMG: coarse levels (matrices, transfers, vectors, factor)",
             coarse.matrix + coarse.vectors + coarse.transfer + coarse.product,
         );
+    }
+
+    /// Allow or forbid f32 coarse matrices from the next refresh on ([`AmgParams::coarse_f32`]).
+    pub fn allow_coarse_f32(&mut self, allowed: bool) {
+        self.params.coarse_f32 = allowed;
     }
 
     /// Whether the levels below the finest hold their matrices in f32 (see `coarse.rs`).

@@ -156,12 +156,24 @@ fn v_cycle_is_symmetric_and_positive() {
 
 #[test]
 fn refresh_matches_a_fresh_build() {
+    // Also when A's storage changed since the build (contact holds A in f64 while pairs are
+    // present): the coarse levels follow it.
+    use Precision::{F32, F64};
+    for (built, refreshed) in [(F64, F64), (F32, F32), (F32, F64), (F64, F32)] {
+        refresh_case(built, refreshed);
+    }
+}
+
+fn refresh_case(built: Precision, refreshed_with: Precision) {
     let s = beam(3, 0.0);
     let bent = beam(3, 0.5);
+    let (a, bent_a) = (stored_in(&s.a, built), stored_in(&bent.a, refreshed_with));
     let params = AmgParams::default();
-    let mut refreshed = Amg::new(&s.a, &s.positions, &s.free, &params);
-    refreshed.refresh(&bent.a);
-    let mut fresh = Amg::new(&bent.a, &s.positions, &s.free, &params);
+    let mut refreshed = Amg::new(&a, &s.positions, &s.free, &params);
+    assert_eq!(refreshed.coarse_f32(), built == Precision::F32);
+    refreshed.refresh(&bent_a);
+    assert_eq!(refreshed.coarse_f32(), refreshed_with == Precision::F32);
+    let mut fresh = Amg::new(&bent_a, &s.positions, &s.free, &params);
     assert_eq!(refreshed.info().levels.len(), fresh.info().levels.len());
     let n = s.a.rows();
     let r = test_vector(n, 3, &s.free);
