@@ -9,9 +9,11 @@
 //! the measured CG time, and the roofline ratio compares that with a STREAM triad measured in the
 //! same process.
 
+mod roofline;
+
+pub use roofline::{cg_vector_bytes_per_vertex, phase_bytes_per_tet, stream_triad};
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::Result;
@@ -134,6 +136,12 @@ pub struct SizeReport {
     pub ns_per_tet_per_newton_preconditioner: f64,
     /// CG per tet per Newton iteration, ns.
     pub ns_per_tet_per_newton_cg: f64,
+    /// Modelled bytes the evaluation moves per tet per Newton iteration (see
+    /// [`phase_bytes_per_tet`]).
+    pub bytes_per_tet_per_newton_evaluate: f64,
+    /// Modelled bytes the assembly moves per tet per Newton iteration (AMG refreshes not
+    /// counted; see [`phase_bytes_per_tet`]).
+    pub bytes_per_tet_per_newton_assembly: f64,
     /// The beam workloads: the mean displacement of the tip face (the vertices at x = 4 m) after
     /// the first run, m: the answer, for comparing versions and settings (other codes' figures,
     /// measured elsewhere, are in docs/performance.md with where and when).
@@ -425,38 +433,6 @@ fn contact_report(
     })
 }
 
-/// CG's own vector traffic per iteration, bytes per vertex: the product's input and output
-/// (2 passes), the mass term and projection of the product (3), pᵀAp (2), the x and r updates
-/// (5), ‖r‖ (1), the preconditioner (3), rᵀz (2) and the p update (3): 21 passes of 24 bytes,
-/// plus the 0/1 mask read twice.
-pub fn cg_vector_bytes_per_vertex() -> f64 {
-    21.0 * 24.0 + 2.0 * 24.0
-}
-
-/// STREAM triad a = b + s·c on three arrays of 2²⁵ f64 (768 MB), best of 5, in GB/s
-/// (24 bytes per element, the STREAM convention).
-pub fn stream_triad() -> f64 {
-    let n = 1 << 25;
-    let b = vec![1.0f64; n];
-    let c = vec![2.0f64; n];
-    let mut a = vec![0.0f64; n];
-    let s = 3.0;
-    let mut best = f64::INFINITY;
-    for _ in 0..5 {
-        let started = Instant::now();
-        a.par_chunks_mut(1 << 16)
-            .zip(b.par_chunks(1 << 16).zip(c.par_chunks(1 << 16)))
-            .for_each(|(a, (b, c))| {
-                for i in 0..a.len() {
-                    a[i] = b[i] + s * c[i];
-                }
-            });
-        best = best.min(started.elapsed().as_secs_f64());
-    }
-    std::hint::black_box(&a);
-    24.0 * n as f64 / best / 1e9
-}
-
 /// Resident set size of this process, MB (Linux; 0 elsewhere).
 pub fn resident_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
@@ -500,7 +476,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             Workload::Coil => coil_scene(n, params.frames, &params.solver_overrides)?,
         };
         let mut per_frame = Vec::new();
-        let (mut newton, mut cg, mut frames) = (0usize, 0usize, 0usize);
+        let (mut newton, mut cg, mut frames, mut cuts) = (0usize, 0usize, 0usize, 0usize);
         let mut timings = crate::integrator::Timings::default();
         let mut wall = 0.0;
         let mut all_converged = true;
@@ -525,6 +501,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
                     newton += stats.newton_iterations;
                     cg += stats.cg_iterations;
                     frames += 1;
+                    cuts += stats.line_search_cuts;
                     timings.add(&stats.timings);
                 }
             }
@@ -561,6 +538,8 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             operator_bytes_per_tet + cg_vector_bytes_per_vertex() * vertices as f64 / tets as f64;
         let achieved = bytes_per_tet * tets as f64 * cg as f64 / cg_seconds.max(1e-12) / 1e9;
         let per_newton_tet = 1e9 / (newton.max(1) as f64 * tets.max(1) as f64);
+        let force_passes = (newton + frames + cuts) as f64 / newton.max(1) as f64;
+        let (evaluate_bytes, assembly_bytes) = phase_bytes_per_tet(&memory, force_passes, tets);
         sizes.push(SizeReport {
             n,
             tets,
@@ -584,6 +563,8 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             ns_per_tet_per_newton_evaluate: timings.evaluate * per_newton_tet,
             ns_per_tet_per_newton_preconditioner: timings.preconditioner * per_newton_tet,
             ns_per_tet_per_newton_cg: timings.cg * per_newton_tet,
+            bytes_per_tet_per_newton_evaluate: evaluate_bytes,
+            bytes_per_tet_per_newton_assembly: assembly_bytes,
             tip_displacement: tip,
             all_converged,
             factor,
@@ -682,10 +663,20 @@ impl BenchReport {
             let tets = r.tets.max(1) as f64;
             let mut parts: Vec<&crate::memory::MemoryPart> = r.memory.parts.iter().collect();
             parts.sort_by_key(|p| std::cmp::Reverse(p.bytes));
+            // A phase's modelled bytes over its time, against STREAM.
+            let roof = |bytes: f64, ns: f64| {
+                let gb_per_s = bytes / ns.max(1e-12);
+                format!(
+                    "{bytes:.0} B, {:.2} of STREAM",
+                    gb_per_s / self.stream_triad_gb_per_s
+                )
+            };
             s.push_str(&format!(
-                "     per Newton iteration and tet: evaluate {:.0} ns, assemble+AMG {:.0} ns, CG {:.0} ns; buffers counted {:.0} B/tet, largest: {}\n",
+                "     per Newton iteration and tet: evaluate {:.0} ns ({}), assemble+AMG {:.0} ns (assembly {}), CG {:.0} ns; buffers counted {:.0} B/tet, largest: {}\n",
                 r.ns_per_tet_per_newton_evaluate,
+                roof(r.bytes_per_tet_per_newton_evaluate, r.ns_per_tet_per_newton_evaluate),
                 r.ns_per_tet_per_newton_preconditioner,
+                roof(r.bytes_per_tet_per_newton_assembly, r.ns_per_tet_per_newton_preconditioner),
                 r.ns_per_tet_per_newton_cg,
                 r.memory.total() as f64 / tets,
                 parts
