@@ -6,15 +6,17 @@
 
 use std::time::Instant;
 
+#[path = "common/beam.rs"]
+mod beam;
+
 use tetsim::Vec3;
-use tetsim::elastic::{AssemblyWork, ElasticBody};
+use tetsim::elastic::AssemblyWork;
 use tetsim::linear::amg::{Amg, AmgParams};
 use tetsim::linear::cg::{
     CgParams, CgWorkspace, Jacobi, LinearOperator, Preconditioner, conjugate_gradient,
 };
 use tetsim::linear::sparse::{BlockCsr, Precision};
-use tetsim::material::{Definiteness, Lame, Model, ModelKind};
-use tetsim::mesh::generate::box_mesh;
+use tetsim::material::Definiteness;
 
 struct Assembled<'a>(&'a BlockCsr);
 
@@ -34,17 +36,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() {
     let n: usize = std::env::args().nth(1).map_or(6, |s| s.parse().expect("n"));
-    let mesh = box_mesh(Vec3::zeros(), Vec3::new(4.0, 1.0, 1.0), [4 * n, n, n]);
-    let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e6, 0.3));
-    let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
-    let free: Vec<Vec3> = tetsim::boundary::mask_holding(&body.mesh.positions, |p| p.x == 0.0);
     // A bent state like the cantilever's sag.
-    let x: Vec<Vec3> = body
-        .mesh
-        .positions
-        .iter()
-        .map(|p| p - Vec3::new(0.0, 0.3 * (p.x / 4.0).powi(2), 0.0))
-        .collect();
+    let (body, x) = beam::bent_beam(n);
+    let free: Vec<Vec3> = tetsim::boundary::mask_holding(&body.mesh.positions, |p| p.x == 0.0);
     let started = Instant::now();
     let lin = body.linearize(&x, Definiteness::Projected);
     let t_linearize = started.elapsed().as_secs_f64();

@@ -6,10 +6,12 @@
 
 use std::time::Instant;
 
+#[path = "common/beam.rs"]
+mod beam;
+
 use tetsim::Vec3;
-use tetsim::elastic::{Damping, ElasticBody, Linearization};
-use tetsim::material::{DampingStiffness, Definiteness, Lame, Model, ModelKind};
-use tetsim::mesh::generate::box_mesh;
+use tetsim::elastic::{Damping, Linearization};
+use tetsim::material::{DampingStiffness, Definiteness};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -20,16 +22,8 @@ fn main() {
     let n: usize = std::env::args()
         .nth(1)
         .map_or(12, |s| s.parse().expect("n"));
-    let mesh = box_mesh(Vec3::zeros(), Vec3::new(4.0, 1.0, 1.0), [4 * n, n, n]);
-    let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e6, 0.3));
-    let body = ElasticBody::new(mesh, model, 1000.0).unwrap();
     // A bent, moving state like the cantilever's sag.
-    let x: Vec<Vec3> = body
-        .mesh
-        .positions
-        .iter()
-        .map(|p| p - Vec3::new(0.0, 0.3 * (p.x / 4.0).powi(2), 0.0))
-        .collect();
+    let (body, x) = beam::bent_beam(n);
     let v: Vec<Vec3> = body
         .mesh
         .positions

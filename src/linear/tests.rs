@@ -386,17 +386,11 @@ fn an_f32_matrix_is_stored_in_f64_while_the_system_needs_it_without_a_new_patter
 /// contact ([`System::may_need_f64`]); its state records which.
 #[test]
 fn coarse_levels_are_f32_only_for_a_system_without_contact() {
-    let params = LinearSolverParams {
-        kind: PreconditionerKind::Amg,
-        amg: amg::AmgParams::default(),
-        f32_matrix: false,
-        matrix_precision: sparse::Precision::F32,
-        cholesky_reuse: true,
-    };
     for may_need_f64 in [false, true] {
         let mut system = Springs::new(9);
         system.may_need_f64 = may_need_f64;
         let n = system.len();
+        let (params, ..) = multigrid_case(n, 1e-8);
         let free = vec![Vec3::repeat(1.0); n];
         let mut solver = make_solver(&params, n);
         solver.prepare(&mut system, &free);

@@ -313,7 +313,9 @@ impl<M: Isotropic> Invertible<M> {
         // Newton's tangent is the damping stiffness's, its pieces scaled by 1 + w (as
         // `newton_tangent` adds w·K_d to a copy of K_d).
         let d = self.model.derivatives(&svd.sigma);
-        self.tangent_at_into(&svd.u, &svd.v, &svd.sigma, &d, strategy, out);
+        // `tangent_at`, in place.
+        *out = unfixed_tangent(&svd.u, &svd.v, &svd.sigma, &d);
+        out.make_definite(strategy, || self.model.block_eigensystem(&svd.sigma, &d.h));
         let w = how.weight;
         let (diag, sym, skew) = (out.diag, out.pair_sym, out.pair_skew);
         if let Some(exact) = exact {
@@ -375,21 +377,6 @@ impl<M: Isotropic> Invertible<M> {
         let mut tangent = unfixed_tangent(u, v, s, d);
         tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
-    }
-
-    /// [`Invertible::tangent_at`] written into `out`.
-    #[inline]
-    fn tangent_at_into(
-        &self,
-        u: &Mat3,
-        v: &Mat3,
-        s: &Vec3,
-        d: &Derivatives,
-        def: Definiteness,
-        out: &mut Tangent,
-    ) {
-        *out = unfixed_tangent(u, v, s, d);
-        out.make_definite(def, || self.model.block_eigensystem(s, &d.h));
     }
 }
 
