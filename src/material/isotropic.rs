@@ -235,12 +235,15 @@ impl<M: Isotropic> Invertible<M> {
     ) -> DampedEvaluation {
         let d = self.model.derivatives(&svd.sigma);
         let stress = svd.u * Mat3::from_diagonal(&d.p) * svd.v.transpose();
-        let at_f = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
-        let (tangent, exact) = self.newton_tangent(&svd.u, &svd.v, &svd.sigma, &d, &at_f, how);
+        let mut tangent =
+            self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
+        let damping = tangent.apply(df_v);
+        let mut exact = DiagonalPieces::default();
+        self.newton_tangent_into(svd, &d, how, &mut tangent, Some(&mut exact));
         DampedEvaluation {
             psi: d.psi,
             stress,
-            damping: at_f.apply(df_v),
+            damping,
             tangent,
             exact,
         }
@@ -283,8 +286,11 @@ impl<M: Isotropic> Invertible<M> {
     #[inline]
     pub fn damped_tangent_svd(&self, svd: &Svd, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
         let d = self.model.derivatives(&svd.sigma);
-        let at_g = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
-        self.newton_tangent(&svd.u, &svd.v, &svd.sigma, &d, &at_g, how)
+        let mut tangent =
+            self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
+        let mut exact = DiagonalPieces::default();
+        self.newton_tangent_into(svd, &d, how, &mut tangent, Some(&mut exact));
+        (tangent, exact)
     }
 
     /// [`Invertible::damped_tangent_svd`] written into `out` and, if given, `exact` (the same
@@ -298,71 +304,45 @@ impl<M: Isotropic> Invertible<M> {
         out: &mut Tangent,
         exact: Option<&mut DiagonalPieces>,
     ) {
-        let strategy = match how.definiteness {
-            Definiteness::Adaptive => Definiteness::Projected,
-            other => other,
-        };
-        if strategy != how.damping.definiteness() {
-            let (tangent, pieces) = self.damped_tangent_svd(svd, how);
-            *out = tangent;
-            if let Some(exact) = exact {
-                *exact = pieces;
-            }
-            return;
-        }
-        // Newton's tangent is the damping stiffness's, its pieces scaled by 1 + w (as
-        // `newton_tangent` adds w·K_d to a copy of K_d).
         let d = self.model.derivatives(&svd.sigma);
-        // `tangent_at`, in place.
-        *out = unfixed_tangent(&svd.u, &svd.v, &svd.sigma, &d);
-        out.make_definite(strategy, || self.model.block_eigensystem(&svd.sigma, &d.h));
-        let w = how.weight;
-        let (diag, sym, skew) = (out.diag, out.pair_sym, out.pair_skew);
-        if let Some(exact) = exact {
-            if how.definiteness == Definiteness::Adaptive {
-                // The exact pieces plus w·K_d, as `newton_tangent` makes them.
-                exact.diag = d.h + w * diag;
-                exact.pair_sym = d.pair_sym + w * sym;
-                exact.pair_skew = d.pair_skew + w * skew;
-            } else {
-                *exact = DiagonalPieces::default();
-            }
-        }
-        out.diag += w * diag;
-        out.pair_sym += w * sym;
-        out.pair_skew += w * skew;
+        *out = self.tangent_at(&svd.u, &svd.v, &svd.sigma, &d, how.damping.definiteness());
+        self.newton_tangent_into(svd, &d, how, out, exact);
     }
 
-    /// Newton's tangent `N + w·K_d` at one σ (U, V, derivatives d), given the damping
-    /// stiffness's tangent there; for `adaptive` also the exact pieces plus `w·K_d`.
+    /// Newton's tangent `N + w·K_d` at one σ (the SVD's U, σ, V; derivatives d) into `tangent`,
+    /// which holds the damping stiffness's tangent K_d there on entry; and, if given, `adaptive`'s
+    /// exact pieces plus `w·K_d` into `exact` (zero pieces for the other strategies). In place:
+    /// the element loops write into their per-tet arrays.
     #[inline]
-    fn newton_tangent(
+    fn newton_tangent_into(
         &self,
-        u: &Mat3,
-        v: &Mat3,
-        s: &Vec3,
+        svd: &Svd,
         d: &Derivatives,
-        damping: &Tangent,
         how: &DampedTangent,
-    ) -> (Tangent, DiagonalPieces) {
+        tangent: &mut Tangent,
+        exact: Option<&mut DiagonalPieces>,
+    ) {
         let strategy = match how.definiteness {
             Definiteness::Adaptive => Definiteness::Projected,
             other => other,
         };
-        let mut tangent = if strategy == how.damping.definiteness() {
-            *damping
-        } else {
-            self.tangent_at(u, v, s, d, strategy)
-        };
-        tangent.add_pieces(damping, how.weight);
-        let exact = if how.definiteness == Definiteness::Adaptive {
-            let mut exact = self.tangent_at(u, v, s, d, Definiteness::Exact);
-            exact.add_pieces(damping, how.weight);
-            exact.pieces()
-        } else {
-            DiagonalPieces::default()
-        };
-        (tangent, exact)
+        let damping = tangent.pieces();
+        if strategy != how.damping.definiteness() {
+            *tangent = self.tangent_at(&svd.u, &svd.v, &svd.sigma, d, strategy);
+        }
+        tangent.add_pieces(&damping, how.weight);
+        if let Some(exact) = exact {
+            // The exact tangent's pieces are the derivatives themselves (no fix).
+            *exact = if how.definiteness == Definiteness::Adaptive {
+                DiagonalPieces {
+                    diag: d.h + how.weight * damping.diag,
+                    pair_sym: d.pair_sym + how.weight * damping.pair_sym,
+                    pair_skew: d.pair_skew + how.weight * damping.pair_skew,
+                }
+            } else {
+                DiagonalPieces::default()
+            };
+        }
     }
 
     #[inline]
@@ -374,25 +354,19 @@ impl<M: Isotropic> Invertible<M> {
         d: &Derivatives,
         def: Definiteness,
     ) -> Tangent {
-        let mut tangent = unfixed_tangent(u, v, s, d);
+        let mut tangent = Tangent {
+            u: *u,
+            v: *v,
+            diag: d.h,
+            pair_sym: d.pair_sym,
+            pair_skew: d.pair_skew,
+            clamped: 0,
+            indefinite: 0,
+            inverted: s[2] <= 0.0,
+            strongly_clamped: false,
+        };
         tangent.make_definite(def, || self.model.block_eigensystem(s, &d.h));
         tangent
-    }
-}
-
-/// The exact tangent at σ (U, V, derivatives d), before any definiteness fix.
-#[inline(always)]
-fn unfixed_tangent(u: &Mat3, v: &Mat3, s: &Vec3, d: &Derivatives) -> Tangent {
-    Tangent {
-        u: *u,
-        v: *v,
-        diag: d.h,
-        pair_sym: d.pair_sym,
-        pair_skew: d.pair_skew,
-        clamped: 0,
-        indefinite: 0,
-        inverted: s[2] <= 0.0,
-        strongly_clamped: false,
     }
 }
 

@@ -91,7 +91,10 @@ impl LinearElastic {
     #[inline]
     pub fn damped_tangent(&self, g: &Mat3, how: &DampedTangent) -> (Tangent, DiagonalPieces) {
         let mut tangent = self.tangent(g, how.definiteness);
-        tangent.add_pieces(&self.tangent(g, how.damping.definiteness()), how.weight);
+        tangent.add_pieces(
+            &self.tangent(g, how.damping.definiteness()).pieces(),
+            how.weight,
+        );
         (tangent, tangent.pieces())
     }
 }

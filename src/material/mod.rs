@@ -340,9 +340,10 @@ impl Tangent {
         std::mem::swap(&mut self.pair_skew, &mut other.pair_skew);
     }
 
-    /// `self += w·other` piece by piece; both must share U and V (made at the same F).
+    /// `self += w·other` piece by piece; `other` must be of a tangent with the same U and V
+    /// (made at the same F).
     #[inline]
-    pub(crate) fn add_pieces(&mut self, other: &Tangent, w: f64) {
+    pub(crate) fn add_pieces(&mut self, other: &DiagonalPieces, w: f64) {
         self.diag += w * other.diag;
         self.pair_sym += w * other.pair_sym;
         self.pair_skew += w * other.pair_skew;
