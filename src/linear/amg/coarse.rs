@@ -73,13 +73,18 @@ impl CoarseMatrix {
     }
 
     /// Store the blocks in f32 (`f32`) or f64 from now on, converting what is held (a refresh
-    /// then overwrites them).
+    /// then overwrites them); nothing to do when they already are.
     pub fn set_precision(&mut self, f32: bool) {
         self.values = match (&self.values, f32) {
             (Values::F64(v), true) => Values::F32(v.iter().map(|b| b.cast::<f32>()).collect()),
             (Values::F32(v), false) => Values::F64(v.iter().map(|b| b.cast::<f64>()).collect()),
             _ => return,
         };
+    }
+
+    /// Whether the blocks are stored in f32.
+    pub fn is_f32(&self) -> bool {
+        matches!(self.values, Values::F32(_))
     }
 
     /// Number of stored blocks.

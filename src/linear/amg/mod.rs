@@ -141,8 +141,6 @@ pub struct Amg {
     fine_a: Option<Bsr<3, 3>>,
     fine: Level<3>,
     coarse: Vec<CoarseLevel>,
-    /// Whether `coarse` holds its matrices in f32 (built on an f32 A; see `coarse.rs`).
-    coarse_f32: bool,
     info: AmgInfo,
 }
 
@@ -273,7 +271,7 @@ impl Amg {
                 .flat_map(|b| b.iter().map(|&x| x as f64))
                 .collect(),
             second: second.a.column_major(),
-            coarse_f32: self.coarse_f32,
+            coarse_f32: second.a.is_f32(),
         })
     }
 
@@ -325,7 +323,7 @@ impl Amg {
             ncols: n,
         });
         let mut coarse: Vec<CoarseLevel> = Vec::new();
-        let coarse_f32 = params.coarse_f32 && a.precision() == Precision::F32;
+        let coarse_f32 = coarse_in_f32(params, a);
         while let Some((a_c, nullspace_c, mask_c)) = next {
             let depth = coarse.len() + 1;
             let a_c = CoarseMatrix::new(a_c, coarse_f32);
@@ -338,7 +336,6 @@ impl Amg {
             fine_a,
             fine,
             coarse,
-            coarse_f32,
             info: AmgInfo::default(),
         };
         amg.info = amg.describe();
@@ -352,12 +349,9 @@ impl Amg {
         let started = Instant::now();
         assert_eq!(a.pattern.blocks(), self.fine.blocks, "same pattern");
         // The coarse levels follow A's storage (see `coarse.rs`), as a fresh build would.
-        let coarse_f32 = self.params.coarse_f32 && a.precision() == Precision::F32;
-        if coarse_f32 != self.coarse_f32 {
-            self.coarse
-                .iter_mut()
-                .for_each(|l| l.a.set_precision(coarse_f32));
-            self.coarse_f32 = coarse_f32;
+        let coarse_f32 = coarse_in_f32(&self.params, a);
+        for level in &mut self.coarse {
+            level.a.set_precision(coarse_f32);
         }
         match &mut self.fine_a {
             Some(own) => {
@@ -418,7 +412,7 @@ impl Amg {
 
     /// Whether the levels below the finest hold their matrices in f32 (see `coarse.rs`).
     pub fn coarse_f32(&self) -> bool {
-        self.coarse_f32
+        self.coarse.first().is_some_and(|l| l.a.is_f32())
     }
 
     /// Levels, sizes, operator complexity and timings.
@@ -471,6 +465,12 @@ impl Preconditioner for WithMatrix<'_> {
             None => amg.fine.cycle(self.a, r, z, &mut amg.coarse),
         }
     }
+}
+
+/// Whether a hierarchy built or refreshed on `a` stores its coarse matrices in f32: when
+/// allowed and A itself is f32 (see `coarse.rs`).
+fn coarse_in_f32(params: &AmgParams, a: &BlockCsr) -> bool {
+    params.coarse_f32 && a.precision() == Precision::F32
 }
 
 /// Stored aggregates as the build takes them, checked: each level's aggregates number that
