@@ -743,6 +743,18 @@ mod tests {
             tip_displacement(&sim)
         };
         assert_eq!(tip_after(0, VertexOrder::default()), [0.0; 3]);
+        // Every part the phase byte model reads is in the workload's inventory.
+        let scene = workload_scene(2, 1, "", VertexOrder::default()).unwrap();
+        let mut sim = Simulation::from_scene(&scene).unwrap();
+        sim.step().unwrap();
+        let memory = sim.memory_inventory();
+        for prefix in roofline::PHASE_PARTS {
+            assert!(
+                memory.parts.iter().any(|p| p.name.starts_with(prefix)),
+                "no part {prefix:?} in {:?}",
+                memory.parts.iter().map(|p| &p.name).collect::<Vec<_>>()
+            );
+        }
         let tip = tip_after(3, VertexOrder::default());
         assert!(tip[1] < -1e-3, "the tip should fall: {tip:?}");
         let shuffled = tip_after(3, VertexOrder::Random);

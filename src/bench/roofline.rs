@@ -13,6 +13,33 @@ pub fn cg_vector_bytes_per_vertex() -> f64 {
     21.0 * 24.0 + 2.0 * 24.0
 }
 
+/// The memory inventory's parts [`phase_bytes_per_tet`] reads, by the start of their names
+/// (each must name a part of the bench workload's inventory: a test checks it, so a renamed
+/// part cannot silently drop out of the model).
+#[cfg(test)]
+pub(super) const PHASE_PARTS: [&str; 10] = [
+    MESH,
+    REST,
+    STATE,
+    FORCE_SLOTS,
+    DAMPING_SLOTS,
+    TANGENTS,
+    ALTERNATE,
+    ASSEMBLY,
+    A,
+    A_PATTERN,
+];
+const MESH: &str = "mesh: rest positions and tets";
+const REST: &str = "rest data:";
+const STATE: &str = "state and frame vectors";
+const FORCE_SLOTS: &str = "per-tet force slots";
+const DAMPING_SLOTS: &str = "per-tet damping";
+const TANGENTS: &str = "per-tet tangents";
+const ALTERNATE: &str = "per-tet alternate";
+const ASSEMBLY: &str = "assembly:";
+const A: &str = "assembled A (";
+const A_PATTERN: &str = "assembled A's pattern";
+
 /// Modelled bytes per tet per Newton iteration of the evaluation and the assembly, from the
 /// sizes of the arrays they pass over (the memory inventory's parts), each counted once per
 /// pass (a traffic model like CG's `B/tet/it`: gathers of vertex data that hit the cache are
@@ -35,18 +62,11 @@ pub fn phase_bytes_per_tet(
             .map(|p| p.bytes as f64)
             .sum()
     };
-    let read = part("mesh: rest positions and tets")
-        + part("rest data:")
-        + part("state and frame vectors");
-    let slots = part("per-tet force slots") + part("per-tet damping");
-    let tangents = part("per-tet tangents") + part("per-tet alternate");
+    let read = part(MESH) + part(REST) + part(STATE);
+    let slots = part(FORCE_SLOTS) + part(DAMPING_SLOTS);
+    let tangents = part(TANGENTS) + part(ALTERNATE);
     let evaluate = force_passes * (read + 2.0 * slots) + read + tangents;
-    let a = part("assembled A (");
-    let assembly = part("per-tet tangents")
-        + part("rest data:")
-        + part("assembly:")
-        + 2.0 * a
-        + part("assembled A's pattern");
+    let assembly = part(TANGENTS) + part(REST) + part(ASSEMBLY) + 2.0 * part(A) + part(A_PATTERN);
     let tets = tets.max(1) as f64;
     (evaluate / tets, assembly / tets)
 }
