@@ -7,7 +7,8 @@
 //! `cargo run --release --example recovery_diag -- model=nhc start=all meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`
 //!
 //! Keys (`key=value`): model nh|nhc|co|mr (nh: `neo-hookean`, nhc: `neo-hookean-clamped`), mesh beam|beam4|beam8|beam632|ball|ball4|ball5|tetgen (cells=N
-//! for ball; tetgen: the TetGen ball fixture), start plane|line|point|scrambled|all, jitter 0|1, seed, frames, E, nu, eps (the
+//! for ball; tetgen: the TetGen ball fixture), start plane|line|point|scrambled|all, jitter 0|1, seed, frames, E, nu, rec (the
+//! recovery threshold of tangled elements, 0: off; model=rec is the recovery form alone), eps (the
 //! Neo-Hookean inversion threshold), gamma, def (definiteness), pc amg|jacobi|none, every,
 //! first, dump=FILE, dumpat=N dumpstate=FILE, loadstate=FILE, switch=N model2=co (change the
 //! material at frame N). Runs end early once settled; "recovered" means < 0.05 mean edges
@@ -118,8 +119,11 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
         get("E", "1e5").parse().unwrap(),
         get("nu", "0.3").parse().unwrap(),
     );
-    let eps: f64 = get("eps", "0.6").parse().unwrap();
-    let eps2: f64 = get("eps2", &get("eps", "0.6")).parse().unwrap();
+    let default_eps = tetsim::material::DEFAULT_INVERSION_THRESHOLD.to_string();
+    let eps: f64 = get("eps", &default_eps).parse().unwrap();
+    let eps2: f64 = get("eps2", &get("eps", &default_eps)).parse().unwrap();
+    let default_rec = tetsim::material::DEFAULT_RECOVERY_THRESHOLD.to_string();
+    let rec: f64 = get("rec", &default_rec).parse().unwrap();
     let make = |name: &str| match name {
         "nh" => Model::NeoHookean(Invertible::new(NeoHookean::with_threshold(lame, eps))),
         "nhc" => Model::NeoHookeanClamped(Invertible::new(NeoHookean::clamped_with_threshold(
@@ -128,9 +132,14 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
         "nhc2" => Model::NeoHookeanClamped(Invertible::new(NeoHookean::clamped_with_threshold(
             lame, eps2,
         ))),
+        "rec" => Model::NeoHookeanClamped(Invertible::new(NeoHookean::recovery(lame, rec))),
         "co" => Model::Corotated(Invertible::new(Corotated::new(lame))),
-        "mr" => Model::new(tetsim::material::ModelKind::MooneyRivlin, lame),
+        "mr" => Model::with_threshold(tetsim::material::ModelKind::MooneyRivlin, lame, eps),
         other => panic!("{other}"),
+    };
+    let with_recovery = |mut body: ElasticBody| {
+        body.set_recovery_threshold(0, rec);
+        body
     };
     let model = make(&get("model", "nh"));
     let switch: usize = get("switch", "0").parse().unwrap();
@@ -146,7 +155,7 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
         .find(|c| c.name() == start)
         .unwrap_or_else(|| panic!("start={start}: plane, line, point or scrambled"));
     let x0 = collapse.apply(&mesh.positions, jitter, get("seed", "7").parse().unwrap());
-    let body = ElasticBody::new(mesh.clone(), model, 1000.0).unwrap();
+    let body = with_recovery(ElasticBody::new(mesh.clone(), model, 1000.0).unwrap());
     let n = x0.len();
     let mut initial = State {
         v: vec![Vec3::zeros(); n],
@@ -186,7 +195,9 @@ fn run(opts: std::collections::HashMap<String, String>) -> f64 {
         if switch > 0 && sim.frame() == switch && base == 0 {
             base = switch;
             params.frames = frames - switch;
-            let body = ElasticBody::new(mesh.clone(), make(&get("model2", "co")), 1000.0).unwrap();
+            let body = with_recovery(
+                ElasticBody::new(mesh.clone(), make(&get("model2", "co")), 1000.0).unwrap(),
+            );
             let state = sim.state.clone();
             sim = Simulation::new(body, Boundary::default(), params.clone(), state).unwrap();
             if sim.is_finished() {

@@ -21,6 +21,10 @@ CONTACT_COLUMNS: List[str]
 """The columns step() dicts add when the scene has contact: contacts, min_distance,
 contact_energy, friction_dissipation."""
 
+RECOVERY_COLUMNS: List[str]
+"""The column every step() dict ends with: tangled_elements (elements evaluated with their
+model's recovery form, after a tangled or inverted start)."""
+
 _Path = Union[str, "PathLike[str]"]
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
@@ -108,7 +112,7 @@ class Simulation:
     def step(self) -> Dict[str, Union[int, float, bool, None]]:
         """Advance one frame (all its substeps); return its row of steps.csv as a dict keyed by
         STEPS_COLUMNS (then CONTACT_COLUMNS with contact; min_distance is None when nothing is
-        near).
+        near; then RECOVERY_COLUMNS).
 
         Raises Error when the run is finished, or when the frame fails under [solver]
         on_failure (the state is then left as it was before the step).
@@ -246,6 +250,8 @@ class Material:
     Models: neo-hookean, neo-hookean-clamped, corotated, stable-neo-hookean,
     st-venant-kirchhoff, mooney-rivlin, linear. Give youngs_modulus and poisson_ratio, or mu and
     lam (λ), as in the scene's [material] (defaults E = 1e5 Pa, ν = 0.3), with its checks.
+    inversion_threshold (default 0.1, a stretch): every model is its formula wherever every
+    principal stretch of F is at least this; below it the model's inversion extension acts.
     """
 
     def __init__(
@@ -256,7 +262,12 @@ class Material:
         poisson_ratio: Optional[float] = None,
         mu: Optional[float] = None,
         lam: Optional[float] = None,
+        inversion_threshold: Optional[float] = None,
     ) -> None: ...
+
+    @property
+    def inversion_threshold(self) -> Optional[float]:
+        """The inversion threshold (a stretch), or None for a model without an extension."""
 
     @property
     def model(self) -> str:

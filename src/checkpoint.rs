@@ -25,7 +25,7 @@ use crate::linear::state::SolverState;
 pub const FILE_NAME: &str = "checkpoint.bin";
 
 /// The layout version of [`Checkpoint`]; a change of the structs below bumps it.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 
 const MAGIC: &[u8; 8] = b"TETSIMCK";
 
@@ -89,6 +89,12 @@ pub struct SimulationState {
     pub solver: SolverState,
     /// Contact's state, when contact is on.
     pub contact: Option<ContactState>,
+    /// The tangled elements (see [`crate::elastic::recovery`]).
+    pub tangled: Vec<u32>,
+    /// While they use the collapsed form: its progress (fewest collapsed tets, frames since).
+    pub unfolding: Option<(u64, u32)>,
+    /// Inverted tets at the end of the last frame.
+    pub inverted_at_end: u64,
 }
 
 /// One written frame: (frame, time, [(file, SHA-256)]).

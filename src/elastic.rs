@@ -26,6 +26,7 @@ mod assembly;
 mod damped;
 mod element;
 pub mod part;
+pub mod recovery;
 pub use assembly::AssemblyWork;
 use element::upper_index;
 pub use element::{VON_MISES_MIN_J, corner_gradients, element_stiffness, tet_forces, von_mises};
@@ -113,6 +114,8 @@ pub struct ElasticBody {
     volume: Vec<f64>,
     mass: Vec<f64>,
     incidence: Incidence,
+    /// Tangled elements and the forms they are evaluated with.
+    recovery: recovery::Recovery,
 }
 
 /// A set of tets with their own material and density.
@@ -207,7 +210,10 @@ impl ElasticBody {
             }
         }
         let incidence = Incidence::new(mesh.positions.len(), &mesh.tets);
+        let recovery =
+            recovery::Recovery::new(std::iter::once(&model).chain(regions.iter().map(|(m, _)| m)));
         Ok(ElasticBody {
+            recovery,
             mesh,
             model,
             density,
@@ -238,12 +244,17 @@ impl ElasticBody {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// The material of tet t.
+    /// The material tet t is evaluated with: its model, or the model's recovery form while the
+    /// tet is tangled (see [`recovery`]).
     #[inline]
     pub fn model_of(&self, t: usize) -> &Model {
-        match self.tet_material.get(t) {
-            Some(&k) if k > 0 => &self.regions[k as usize - 1].0,
-            _ => &self.model,
+        let k = self.material_index(t);
+        if let Some(form) = self.recovery.form(t, k) {
+            return form;
+        }
+        match k {
+            0 => &self.model,
+            k => &self.regions[k - 1].0,
         }
     }
 

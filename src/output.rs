@@ -36,6 +36,21 @@ pub const STEPS_HEADER: &str = "frame,time,newton_iterations,cg_iterations,resid
 /// energy and the friction dissipated over the frame (J).
 pub const CONTACT_COLUMNS: &str = "contacts,min_distance,contact_energy,friction_dissipation";
 
+/// The steps.csv column appended last (after [`CONTACT_COLUMNS`] when contact is on): elements
+/// evaluated with their model's recovery form at the end of the frame (see
+/// [`crate::elastic::recovery`]).
+pub const RECOVERY_COLUMNS: &str = "tangled_elements";
+
+/// The whole steps.csv header: [`STEPS_HEADER`], then [`CONTACT_COLUMNS`] when `contact`, then
+/// [`RECOVERY_COLUMNS`].
+pub fn steps_header(contact: bool) -> String {
+    if contact {
+        format!("{STEPS_HEADER},{CONTACT_COLUMNS},{RECOVERY_COLUMNS}")
+    } else {
+        format!("{STEPS_HEADER},{RECOVERY_COLUMNS}")
+    }
+}
+
 /// One frame's output files with their SHA-256, for the manifest.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameFiles {
@@ -497,7 +512,7 @@ impl Recorder {
     /// At the first frame: the steps.csv header (and probes.csv's and reactions.csv's when the
     /// run has them), and with contact the obstacles at rest.
     fn start(&mut self, sim: &Simulation) {
-        self.csv = format!("{STEPS_HEADER}\n");
+        self.csv = format!("{}\n", steps_header(false));
         let monitors = sim.monitors();
         if !monitors.probes.is_empty() {
             self.probes_csv = format!("{}\n", monitors.probes_header());
@@ -507,7 +522,7 @@ impl Recorder {
         }
         self.timings = TimingsCsv::new(sim.contact().is_some());
         if let Some(setup) = sim.contact_setup() {
-            self.csv = format!("{STEPS_HEADER},{CONTACT_COLUMNS}\n");
+            self.csv = format!("{}\n", steps_header(true));
             let scene = scene_box(sim.initial_positions(), setup);
             self.contact = Some(ContactOutput {
                 surface: DisplaySurface::new(setup, scene),
@@ -684,7 +699,7 @@ pub enum Cell {
 }
 
 /// The steps.csv columns of one frame, named by the header ([`STEPS_HEADER`], then
-/// [`CONTACT_COLUMNS`] when `contact`), in order: the one list both the CSV row and the Python
+/// [`CONTACT_COLUMNS`] when `contact`, then [`RECOVERY_COLUMNS`]), in order: the one list both the CSV row and the Python
 /// module's `step()` dict are made from, so they cannot disagree.
 pub fn step_columns(s: &StepStats, contact: bool) -> Vec<(&'static str, Cell)> {
     use Cell::{Count, Flag, Real};
@@ -723,6 +738,8 @@ pub fn step_columns(s: &StepStats, contact: bool) -> Vec<(&'static str, Cell)> {
         ]);
         names.extend(CONTACT_COLUMNS.split(','));
     }
+    values.push(Count(s.tangled_elements));
+    names.extend(RECOVERY_COLUMNS.split(','));
     debug_assert_eq!(names.len(), values.len(), "a column without a name");
     names.into_iter().zip(values).collect()
 }

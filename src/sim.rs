@@ -16,6 +16,7 @@
 mod checkpoint;
 mod control;
 mod monitoring;
+mod recovery;
 
 use std::time::Instant;
 
@@ -76,6 +77,10 @@ pub struct Simulation {
     /// Under MPI on rank 0: what steps the ranks' parts and gathers their state into this whole
     /// simulation's, which then only reads and writes (see [`crate::parallel`]).
     driver: Option<Box<dyn crate::parallel::Driver>>,
+    /// Inverted tets at the end of the last frame (over every rank; `usize::MAX`: not known).
+    inverted_at_end: usize,
+    /// Tangled elements (over every rank).
+    tangled_total: usize,
 }
 
 impl Simulation {
@@ -145,6 +150,8 @@ impl Simulation {
             damping: None,
             monitors: Default::default(),
             driver: None,
+            inverted_at_end: usize::MAX,
+            tangled_total: 0,
         })
     }
 
@@ -384,7 +391,9 @@ impl Simulation {
             return Ok(stats);
         }
         self.saved.clone_from(&self.state);
-        if self.ledger_x != self.state.x {
+        let moved = self.ledger_x != self.state.x;
+        let recovery_changed = self.update_recovery(moved || self.frame == 0);
+        if moved || recovery_changed {
             let ranks = self.newton.ranks().cloned();
             self.ledger = initial_ledger(
                 &self.body,
@@ -445,6 +454,7 @@ impl Simulation {
         stats.kinetic_energy = self.kinetic_energy();
         stats.min_j = deformation.min_j;
         stats.inverted_elements = deformation.inverted;
+        stats.tangled_elements = self.tangled_total;
         if let Some(ranks) = self.newton.ranks() {
             let mut sums = [stats.kinetic_energy, stats.inverted_elements as f64];
             ranks.sum(&mut sums);
@@ -455,6 +465,7 @@ impl Simulation {
             stats.min_j = -least[0];
         }
         stats.wall_seconds = started.elapsed().as_secs_f64();
+        self.inverted_at_end = stats.inverted_elements;
         self.ledger_x.clone_from(&self.state.x);
         self.frame = frame;
         Ok(stats)
@@ -496,7 +507,8 @@ impl Simulation {
             substeps,
             ..Default::default()
         };
-        let p = &self.params;
+        let params = self.frame_params().into_owned();
+        let p = &params;
         let ramp_frames = self.ramp_frames.unwrap_or(p.frames);
         for i in 1..=substeps {
             let (clock, kind_is_dynamic, h, t) = match p.integrator {
@@ -562,7 +574,7 @@ impl Simulation {
                 kind,
                 f_ext: &self.f_ext,
                 free: &self.free,
-                params: &self.params,
+                params: p,
             };
             let mut info = self
                 .newton

@@ -455,6 +455,68 @@ material_tests! {
     linear: Linear, 600;
 }
 
+/// The forms tangled elements are evaluated with (the levelled log and the clamp at the recovery
+/// threshold, see `tetsim::elastic::recovery`): the same checks as every model.
+#[test]
+fn recovery_forms_match_finite_differences() {
+    let mut seed = 800;
+    for kind in [ModelKind::NeoHookean, ModelKind::MooneyRivlin] {
+        let forms = Model::new(kind, lame())
+            .recovery(tetsim::material::DEFAULT_RECOVERY_THRESHOLD)
+            .expect("a recovery form");
+        for model in [forms.collapsed, forms.overlapping] {
+            check_psi_to_p(&model, seed);
+            check_p_to_dp(&model, seed + 1);
+            check_tangent_consistency(&model, seed + 2);
+            check_projected_psd(&model, seed + 3);
+            check_projected_equals_exact_near_rest(&model, seed + 4);
+            check_finite_everywhere(&model, seed + 5);
+            check_body_energy_to_forces(&model, seed + 6);
+            check_body_forces_to_stiffness(&model, seed + 7);
+            seed += 10;
+        }
+    }
+}
+
+/// SPEC §3: below the inversion threshold a crushed stretch meets a resistance that keeps
+/// growing (∂p₃/∂σ₃ > 0 all the way into inversion), whatever the other stretches; never the
+/// softening that lets a load of the order of E crush a body flat.
+#[test]
+fn crushed_stretches_resist_more_and_more() {
+    let e = lame().youngs_modulus();
+    for kind in [
+        ModelKind::NeoHookean,
+        ModelKind::NeoHookeanClamped,
+        ModelKind::MooneyRivlin,
+    ] {
+        let model = Model::new(kind, lame());
+        let threshold = model.inversion_threshold().unwrap();
+        assert_eq!(threshold, tetsim::material::DEFAULT_INVERSION_THRESHOLD);
+        for lateral in [0.5, 1.0, 1.05, 1.5, 2.0] {
+            let stress = |s3: f64| {
+                model.stress(&Mat3::from_diagonal(&Vec3::new(lateral, lateral, s3)))[(2, 2)]
+            };
+            // Down to −0.9 of the lateral stretches: deeper, the rotation-variant SVD carries the
+            // inversion on a lateral axis instead (Irving et al. 2004's σ₃ = −σ₂ kink).
+            let mut last = stress(2.0 * threshold);
+            for k in 1.. {
+                let s3 = 2.0 * threshold - k as f64 * 0.01;
+                if s3 < -0.9 * lateral {
+                    break;
+                }
+                let p = stress(s3);
+                assert!(
+                    p < last,
+                    "{kind:?}, lateral {lateral}: P₃₃ {p:e} at σ₃ = {s3:.2} is not below {last:e}"
+                );
+                last = p;
+            }
+            // At σ₃ = 0 the push is many times E (a tet is crushed flat only by loads ≫ E).
+            assert!(stress(0.0) < -10.0 * e, "{kind:?}: {:e}", stress(0.0));
+        }
+    }
+}
+
 /// The element kernel: tet energy W Ψ(Ds Bm) → tet_forces, on a single tet.
 #[test]
 fn tet_forces_match_energy_gradient() {
@@ -493,6 +555,9 @@ fn isotropic_models() -> Vec<Box<dyn Isotropic>> {
         Box::new(StVenantKirchhoff::new(lame())),
         Box::new(MooneyRivlin::new(lame())),
         Box::new(MooneyRivlin::clamped(lame())),
+        Box::new(NeoHookean::recovery(lame(), 0.6)),
+        Box::new(MooneyRivlin::recovery(lame(), 0.6)),
+        Box::new(tetsim::material::LevelledNeoHookean::new(lame(), 0.6)),
     ]
 }
 

@@ -1098,44 +1098,21 @@ fn small_beam() -> TetMesh {
 }
 
 #[test]
-fn flattened_and_pointlike_bodies_recover() {
-    // All vertices on one plane (with and without jitter), or on one point: every tet has
-    // J = 0, and the body springs back to its rest shape up to a rigid motion. Every model with
-    // a restoring force at F = 0 and rotation invariance; stable Neo-Hookean and St. Venant-
-    // Kirchhoff have no force there (their documented limit: a tet squeezed onto a point stays a
-    // point), and small-strain linear elasticity cannot tell a rotated body from a strained one.
-    let meshes = [("beam", small_beam()), ("ball", carved_ball(1.0, 5))];
-    // The clamped models and corotated run these starts (and the tangled ones) in
-    // `every_collapsed_and_tangled_start_recovers_with_the_clamped_models_and_corotated`.
-    for (name, mesh) in &meshes {
-        for kind in [ModelKind::NeoHookean] {
-            for (collapse, jitter) in [
-                (Collapse::Plane, false),
-                (Collapse::Plane, true),
-                (Collapse::Point, false),
-            ] {
-                let d = recover(mesh, kind, collapse, jitter, 60);
-                assert!(
-                    d < RECOVERED,
-                    "{name} {kind:?} {collapse:?} jitter {jitter}: {d:.3} edges from rest"
-                );
-            }
-        }
-    }
-}
-
-#[test]
-fn every_collapsed_and_tangled_start_recovers_with_the_clamped_models_and_corotated() {
+fn every_collapsed_and_tangled_start_recovers() {
     // Irving et al. 2004's demonstrations on a beam and a ball: every vertex on one plane, on one
     // line, on one point (each with and without jitter) or scrambled in a small box (with and
     // without jitter); the tangled starts have about half the tets inverted with random
     // orientations. Each comes back to its rest shape up to a rigid motion, with no NaN at any
-    // frame. `recovery_table` prints the distances, for every model (the default Neo-Hookean
-    // continuation leaves a jittered line or point beam folded; see its module docs).
+    // frame, with the default model (its tangled elements in their recovery forms, see
+    // `tetsim::elastic::recovery`), the other models with a recovery form, and corotated.
+    // Stable Neo-Hookean and St. Venant-Kirchhoff have no restoring force at F = 0, and
+    // small-strain linear elasticity cannot tell a rotated body from a strained one.
+    // `recovery_table` prints the distances, for every model.
     let meshes = [("beam", small_beam()), ("ball", carved_ball(1.0, 5))];
     let mut failures = Vec::new();
     for (name, mesh) in &meshes {
         for kind in [
+            ModelKind::NeoHookean,
             ModelKind::NeoHookeanClamped,
             ModelKind::Corotated,
             ModelKind::MooneyRivlin,
@@ -1153,6 +1130,41 @@ fn every_collapsed_and_tangled_start_recovers_with_the_clamped_models_and_corota
         }
     }
     assert!(failures.is_empty(), "not recovered: {failures:#?}");
+}
+
+#[test]
+fn tangled_elements_use_a_recovery_form_until_the_body_is_untangled() {
+    // A beam flattened onto a plane: at frame 1 every element is tangled (evaluated with its
+    // model's recovery form); once the beam is back, none is, and the body's energy is the
+    // model's own again, tet by tet.
+    let mesh = small_beam();
+    let tets = mesh.tets.len();
+    let mut sim = collapsed_body(mesh, ModelKind::NeoHookean, Collapse::Plane, 0.0, 60);
+    let first = sim.step().unwrap();
+    assert_eq!(first.tangled_elements, tets);
+    let mut last = first;
+    while !sim.is_finished() {
+        last = sim.step().unwrap();
+    }
+    assert_eq!(last.tangled_elements, 0);
+    assert_eq!(sim.body.tangled_tets(), 0);
+    let x = &sim.state.x;
+    let model = Model::new(ModelKind::NeoHookean, Lame::from_young_poisson(1e5, 0.3));
+    let by_model: f64 = (0..tets)
+        .map(|t| sim.body.volumes()[t] * model.energy_density(&sim.body.deformation_gradient(x, t)))
+        .sum();
+    let energy = sim.body.energy(x);
+    assert!(
+        (energy - by_model).abs() <= 1e-12 * by_model.abs().max(1e-9),
+        "{energy} vs {by_model}"
+    );
+    // A body that never tangles never flags an element.
+    let mut scene = tetsim::Scene::default();
+    scene.solver.frames = 3;
+    let mut beam = Simulation::from_scene(&scene).unwrap();
+    while !beam.is_finished() {
+        assert_eq!(beam.step().unwrap().tangled_elements, 0);
+    }
 }
 
 #[test]
@@ -1221,18 +1233,16 @@ fn print_recovery_table(meshes: &[(&str, TetMesh)], kinds: &[ModelKind], frames:
                         collapse.name(),
                         started.elapsed().as_secs_f64()
                     );
-                    // The clamped models and corotated come back from every start; Neo-Hookean
-                    // (the continuation) from the untangled ones; no model may blow up (a wrong
-                    // fold stays within the body's own size, a few edges).
-                    let required = match kind {
-                        ModelKind::NeoHookeanClamped
-                        | ModelKind::Corotated
-                        | ModelKind::MooneyRivlin => true,
-                        ModelKind::NeoHookean => {
-                            collapse == Collapse::Plane || (collapse == Collapse::Point && !jitter)
-                        }
-                        _ => false,
-                    };
+                    // The models with a recovery form and corotated come back from every start;
+                    // no model may blow up (a wrong fold stays within the body's own size, a few
+                    // edges).
+                    let required = matches!(
+                        kind,
+                        ModelKind::NeoHookean
+                            | ModelKind::NeoHookeanClamped
+                            | ModelKind::Corotated
+                            | ModelKind::MooneyRivlin
+                    );
                     let blown_up = d.is_nan() || d >= BLOWN_UP;
                     if (required && !recovered(d)) || blown_up {
                         failures.push(format!("{name} {kind:?} {collapse:?} {jitter}: {d}"));

@@ -43,5 +43,11 @@ fn tetsim_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
             .split(',')
             .collect::<Vec<_>>(),
     )?;
+    m.add(
+        "RECOVERY_COLUMNS",
+        tetsim::output::RECOVERY_COLUMNS
+            .split(',')
+            .collect::<Vec<_>>(),
+    )?;
     Ok(())
 }

@@ -14,6 +14,8 @@ use crate::errors::{Fields, argument};
 /// the scene's [material] keys (lam is λ, `lambda` being a Python keyword) with the same
 /// defaults (E = 1e5 Pa, ν = 0.3) and checks. Models: neo-hookean, neo-hookean-clamped,
 /// corotated, stable-neo-hookean, st-venant-kirchhoff, mooney-rivlin, linear.
+/// inversion_threshold (default 0.1): every model is its formula wherever every principal
+/// stretch of F is at least this; below it the model's inversion extension acts.
 #[pyclass(module = "tetsim", frozen)]
 pub struct Material {
     model: Model,
@@ -23,13 +25,14 @@ pub struct Material {
 #[pymethods]
 impl Material {
     #[new]
-    #[pyo3(signature = (model="neo-hookean", *, youngs_modulus=None, poisson_ratio=None, mu=None, lam=None))]
+    #[pyo3(signature = (model="neo-hookean", *, youngs_modulus=None, poisson_ratio=None, mu=None, lam=None, inversion_threshold=None))]
     fn new(
         model: &str,
         youngs_modulus: Option<f64>,
         poisson_ratio: Option<f64>,
         mu: Option<f64>,
         lam: Option<f64>,
+        inversion_threshold: Option<f64>,
     ) -> PyResult<Self> {
         // The scene's own validator checks the values, so a Material refuses exactly what a
         // [material] table would, with the same words.
@@ -40,6 +43,7 @@ impl Material {
             ("poisson_ratio", poisson_ratio),
             ("mu", mu),
             ("lambda", lam),
+            ("inversion_threshold", inversion_threshold),
         ] {
             if let Some(v) = value {
                 material.insert(key.into(), v.into());
@@ -55,10 +59,11 @@ impl Material {
         );
         let scene = tetsim::Scene::parse(&text, "<Material>".as_ref(), ".".as_ref())
             .map_err(material_error)?;
-        let lame = scene.lame().map_err(|m| argument("material", m))?;
+        let (model, _) =
+            tetsim::Scene::material_model(&scene.material).map_err(|m| argument("material", m))?;
         Ok(Material {
-            model: Model::new(scene.material.model, lame),
-            lame,
+            lame: model.lame(),
+            model,
         })
     }
 
@@ -90,6 +95,12 @@ impl Material {
     #[getter]
     fn poisson_ratio(&self) -> f64 {
         self.lame.poisson_ratio()
+    }
+
+    /// The inversion threshold (a stretch), or None for a model without an extension.
+    #[getter]
+    fn inversion_threshold(&self) -> Option<f64> {
+        self.model.inversion_threshold()
     }
 
     /// Energy density Ψ(F), J/m³: F (k, 3, 3) float64 → (k,) float64.

@@ -11,8 +11,8 @@ MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
 
 
 def random_f(k=50, seed=1, spread=0.3):
-    """Deformation gradients near the identity, every stretch above 0.65: the formulas hold there
-    (below the inversion threshold of 0.6 the models extend them, Irving et al. 2004)."""
+    """Deformation gradients near the identity, every stretch above 0.65 (see
+    test_neo_hookean_is_its_formula_down_to_the_threshold for stretches down to 0.1)."""
     rng = np.random.default_rng(seed)
     f = np.eye(3) + spread * rng.uniform(-1, 1, size=(k, 3, 3))
     sigma = np.linalg.svd(f, compute_uv=False)
@@ -47,6 +47,82 @@ def test_neo_hookean_energy_and_stress_match_the_formula():
     np.testing.assert_allclose(m.energy(f), psi, rtol=1e-10, atol=1e-9 * MU)
     np.testing.assert_allclose(m.stress(f), p, rtol=1e-10, atol=1e-9 * MU)
     assert m.energy(np.eye(3)[None]).tolist() == [0.0]
+
+
+def stretched_f(k, seed, lowest=0.1, highest=3.0, min_det=0.2):
+    """F = U diag(σ) Vᵀ with random rotations and every stretch σ in [lowest, highest], det F ≥
+    min_det: deep compression along one or two axes, within the formula's range."""
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < k:
+        s = np.exp(rng.uniform(np.log(lowest), np.log(highest), size=3))
+        if s.prod() < min_det:
+            continue
+        u, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+        v, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+        u *= np.sign(np.linalg.det(u))
+        v *= np.sign(np.linalg.det(v))
+        out.append(u @ np.diag(s) @ v.T)
+    # Stretches right at the threshold too.
+    out[0] = np.diag([lowest, 2.0, 2.5])
+    out[1] = np.diag([lowest * 1.0000001, lowest * 2.1, 1 / lowest])
+    return np.ascontiguousarray(out)
+
+
+def relative(a, b):
+    """Largest difference relative to each sample's largest entry of the reference."""
+    a, b = np.asarray(a), np.asarray(b)
+    axes = tuple(range(1, b.ndim))
+    scale = np.abs(b).max(axis=axes) if axes else np.abs(b)
+    diff = np.abs(a - b).max(axis=axes) if axes else np.abs(a - b)
+    return (diff / scale).max()
+
+
+def test_neo_hookean_is_its_formula_down_to_the_threshold():
+    # SPEC §2 and §3: Ψ, P and ∂P/∂F are the Neo-Hookean formulas wherever every principal
+    # stretch is at least the inversion threshold (0.1), to 1e-12 relative.
+    m = tetsim.Material("neo-hookean", youngs_modulus=E, poisson_ratio=NU)
+    assert m.inversion_threshold == 0.1
+    f = stretched_f(200, seed=11)
+    j = np.linalg.det(f)
+    log_j = np.log(j)
+    c = np.einsum("kij,kij->k", f, f)
+    psi = MU / 2 * (c - 3) - MU * log_j + LAM / 2 * log_j**2
+    f_inv = np.linalg.inv(f)
+    f_inv_t = np.transpose(f_inv, (0, 2, 1))
+    p = MU * (f - f_inv_t) + LAM * log_j[:, None, None] * f_inv_t
+    # dP = μ dF + (μ − λ log J) F⁻ᵀ dFᵀ F⁻ᵀ + λ tr(F⁻¹ dF) F⁻ᵀ, one column per entry of dF.
+    tangent = np.zeros((len(f), 9, 9))
+    for lm in range(9):
+        d = np.zeros((3, 3))
+        d[lm // 3, lm % 3] = 1.0
+        dp = (
+            MU * d
+            + (MU - LAM * log_j)[:, None, None] * (f_inv_t @ d.T @ f_inv_t)
+            + LAM * np.einsum("kij,ji->k", f_inv, d)[:, None, None] * f_inv_t
+        )
+        tangent[:, :, lm] = dp.reshape(len(f), 9)
+    assert relative(m.energy(f) + MU, psi + MU) < 1e-12  # Ψ ≥ 0: relative to Ψ + μ
+    assert relative(m.stress(f), p) < 1e-12
+    assert relative(m.tangent(f, definiteness="none"), tangent) < 1e-12
+    # The same for a threshold set lower, down to its own value.
+    low = tetsim.Material("neo-hookean", youngs_modulus=E, poisson_ratio=NU, inversion_threshold=0.05)
+    f = stretched_f(50, seed=12, lowest=0.05, min_det=0.05)
+    j = np.linalg.det(f)
+    f_inv_t = np.transpose(np.linalg.inv(f), (0, 2, 1))
+    p = MU * (f - f_inv_t) + LAM * np.log(j)[:, None, None] * f_inv_t
+    assert relative(low.stress(f), p) < 1e-12
+
+
+def test_crushed_neo_hookean_resists_more_and_more():
+    # Below the threshold the extension keeps the compressive stress growing: never crushed
+    # flat by a load of the order of E.
+    m = tetsim.Material("neo-hookean", youngs_modulus=E, poisson_ratio=NU)
+    s = np.linspace(0.3, -1.0, 131)
+    f = np.ascontiguousarray([np.diag([1.05, 1.05, x]) for x in s])
+    p33 = m.stress(f)[:, 2, 2]
+    assert (np.diff(p33) < 0).all()
+    assert p33[s <= 0.0].max() < -40 * E
 
 
 def test_corotated_energy_and_stress_match_the_formula():

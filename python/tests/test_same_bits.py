@@ -63,7 +63,7 @@ def test_step_reaches_the_command_line_s_positions_bit_for_bit(tmp_path, tetsim_
     sim = tetsim.Simulation(tetsim.Scene.load(scene))
     csv = (out / "steps.csv").read_text().splitlines()
     header = csv[0].split(",")
-    assert header == tetsim.STEPS_COLUMNS
+    assert header == tetsim.STEPS_COLUMNS + tetsim.RECOVERY_COLUMNS
     for frame in range(1, frames + 1):
         stats = sim.step()
         assert stats["frame"] == frame == sim.frame

@@ -51,7 +51,7 @@ def test_step_returns_the_steps_csv_columns():
     sim = tetsim.Simulation(tetsim.Scene.from_dict(box_scene()))
     assert (sim.frame, sim.time, sim.frames, sim.is_finished) == (0, 0.0, 10, False)
     stats = sim.step()
-    assert list(stats) == tetsim.STEPS_COLUMNS
+    assert list(stats) == tetsim.STEPS_COLUMNS + tetsim.RECOVERY_COLUMNS
     assert stats["frame"] == 1 and stats["converged"] is True
     assert isinstance(stats["newton_iterations"], int) and isinstance(stats["residual"], float)
     assert sim.frame == 1 and sim.time == pytest.approx(0.02)
@@ -70,7 +70,7 @@ def test_step_returns_the_steps_csv_columns():
 def test_contact_adds_its_columns(tmp_path):
     sim = tetsim.Simulation(tetsim.Scene.load(scene_copy(tmp_path, "jelly_drop.toml", 1)))
     stats = sim.step()
-    assert list(stats) == tetsim.STEPS_COLUMNS + tetsim.CONTACT_COLUMNS
+    assert list(stats) == tetsim.STEPS_COLUMNS + tetsim.CONTACT_COLUMNS + tetsim.RECOVERY_COLUMNS
     assert stats["min_distance"] is None or stats["min_distance"] > 0
 
 

@@ -66,6 +66,7 @@ impl ElasticBody {
             volume: tets.iter().map(|&t| self.volume[t]).collect(),
             mass: vec![0.0; vertices.len()],
             incidence,
+            recovery: self.recovery.part(tets),
         }
     }
 
@@ -93,7 +94,11 @@ impl ElasticBody {
             ));
         }
         let incidence = Incidence::new(n, &mesh.tets);
+        let recovery = super::recovery::Recovery::new(
+            std::iter::once(&pieces.model).chain(pieces.regions.iter().map(|(m, _)| m)),
+        );
         Ok(ElasticBody {
+            recovery,
             mesh,
             model: pieces.model,
             density: pieces.density,

@@ -105,6 +105,9 @@ pub struct StepStats {
     pub min_j: f64,
     /// Tets with det F ≤ 0 at the end of the frame.
     pub inverted_elements: usize,
+    /// Tets evaluated with their model's recovery form during the frame (see
+    /// [`crate::elastic::recovery`]).
+    pub tangled_elements: usize,
     /// Wall-clock seconds spent on the frame (retries included).
     pub wall_seconds: f64,
     /// Substeps used (more than asked when the step was cut).

@@ -15,12 +15,16 @@
 //!   material, and Newton retried 31 steps of a block crushed under a plate), and its curvature
 //!   Q·c″ offsets the window's negative c″·q.
 //!
-//! For Neo-Hookean and Mooney-Rivlin k = Q = 2μ (2μ is the stiffness of corotated's deviatoric
-//! term). Measured on 172 tangled starts (`cargo run --release --example recovery_diag --
-//! model=nhc start=all meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`): with Q = 2μ no
-//! start stays folded for either model (Q = 0: 1 for Neo-Hookean, 4 for Mooney-Rivlin), and the
-//! squashed block of `scenes/squash_release.toml` retries 11 steps instead of 31 (Q = μ: 26,
-//! 3μ: 11, 4.4μ: 16, 8μ: 21).
+//! Two uses, two choices of k and Q:
+//! - **Recovery** ([`StretchClamp::with_shear_modulus`], at a stretch of 0.6): what tangled
+//!   elements are evaluated with ([`crate::elastic::recovery`]). k = Q = 2μ (2μ is the stiffness
+//!   of corotated's deviatoric term) brings every one of 172 collapsed, scrambled and inverted
+//!   starts back (`cargo run --release --example recovery_diag -- model=nhc start=all
+//!   meshes=beam,beam4,beam8,beam632 seeds=7,1,2,3,4,5,6,8`; Q = 0 left 1 folded for
+//!   Neo-Hookean, 4 for Mooney-Rivlin).
+//! - **An inversion extension** ([`Clamped::matching`], at the inversion threshold 0.1): k and Q
+//!   are the model's own stiffness and stress at ε, so the resistance of a crushed stretch keeps
+//!   growing (`neo-hookean-clamped`, `mooney-rivlin`).
 //!
 //! Where every σ ≥ ε the model is the wrapped one, bit for bit the same code path.
 
@@ -73,8 +77,13 @@ impl StretchClamp {
     /// The floor ¾ε: the smallest stretch the wrapped model sees.
     #[inline]
     pub fn floor(&self) -> f64 {
-        let e = self.threshold;
-        e - 0.25 * e
+        Self::floor_of(self.threshold)
+    }
+
+    /// The floor ¾ε of a clamp at `threshold` ε.
+    #[inline]
+    pub fn floor_of(threshold: f64) -> f64 {
+        threshold - 0.25 * threshold
     }
 
     /// c, R and their derivatives at σ (identity, no spring, at and above ε).
@@ -158,6 +167,27 @@ pub struct Clamped<M> {
 }
 
 impl<M: Isotropic> Clamped<M> {
+    /// `model` clamped at `threshold` with a spring and push matched to the model where one
+    /// stretch reaches the floor ¾ε and the others are at rest, σ = (1, 1, ¾ε): Q = −p₃ and
+    /// k = ∂p₃/∂σ₃ there. The push then takes over the model's compressive stress across the
+    /// window (with Q the stress at the floor, the window's curvature c″·(q + Q) is not negative
+    /// for that state) and the spring continues it with the model's own stiffness, Irving et al.
+    /// 2004's linear extrapolation, so a crushed stretch meets a resistance that keeps growing
+    /// instead of falling to 2μ (what [`StretchClamp::with_shear_modulus`] gives, for tangled
+    /// starts).
+    pub fn matching(model: M, threshold: f64) -> Self {
+        let floor = StretchClamp::floor_of(threshold);
+        let at = model.derivatives(&Vec3::new(1.0, 1.0, floor));
+        Clamped {
+            model,
+            clamp: StretchClamp {
+                threshold,
+                stiffness: at.h[(2, 2)].max(0.0),
+                push: (-at.p[2]).max(0.0),
+            },
+        }
+    }
+
     /// The composite at σ, some σ < ε.
     fn below(&self, s: &Vec3) -> Derivatives {
         let m = [

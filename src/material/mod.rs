@@ -5,15 +5,22 @@
 //! and definiteness. Adding a model is one file with Ψ̂, ∂Ψ̂/∂σ and ∂²Ψ̂/∂σ² (and closed-form
 //! pair eigenvalues), plus one arm in [`Model`], [`ModelKind`] and `with_model!`.
 //!
-//! | scene name | model | inverted / flat F |
-//! |---|---|---|
-//! | `neo-hookean` | [`NeoHookean`], SPEC §2 | extended log, restoring |
-//! | `neo-hookean-clamped` | [`NeoHookean`], Irving et al. 2004 | clamped stretches, linear spring (for tangled starts) |
-//! | `corotated` | [`Corotated`], SPEC §2 | polynomial, restoring |
-//! | `stable-neo-hookean` | [`StableNeoHookean`], Smith et al. 2018 | polynomial, restoring (F = 0 is critical) |
-//! | `st-venant-kirchhoff` | [`StVenantKirchhoff`] | finite, but reflections cost nothing |
-//! | `mooney-rivlin` | [`MooneyRivlin`], compressible | clamped stretches, linear spring ([`Clamped`]) |
-//! | `linear` | [`LinearElastic`], small strain | finite; not rotation invariant |
+//! | scene name | model | below the inversion threshold (0.1) | tangled elements |
+//! |---|---|---|---|
+//! | `neo-hookean` | [`NeoHookean`], SPEC §2 | Taylor-extended log, growing resistance | [`NeoHookean::recovery`] |
+//! | `neo-hookean-clamped` | [`NeoHookean`], Irving et al. 2004 | clamped stretches, matched spring ([`Clamped::matching`]) | [`NeoHookean::recovery`] |
+//! | `corotated` | [`Corotated`], SPEC §2 | (none: polynomial, restoring) | itself |
+//! | `stable-neo-hookean` | [`StableNeoHookean`], Smith et al. 2018 | (none: polynomial; F = 0 is critical) | itself |
+//! | `st-venant-kirchhoff` | [`StVenantKirchhoff`] | (none: finite, but reflections cost nothing) | itself |
+//! | `mooney-rivlin` | [`MooneyRivlin`], compressible | clamped stretches, matched spring ([`Clamped::matching`]) | [`MooneyRivlin::recovery`] |
+//! | `linear` | [`LinearElastic`], small strain | (none: finite; not rotation invariant) | itself |
+//!
+//! Every model is exactly its formula wherever every principal stretch is at least its inversion
+//! threshold ([`DEFAULT_INVERSION_THRESHOLD`], `[material] inversion_threshold`). Below it an
+//! extension keeps forces finite and the compressive resistance growing. Elements that are
+//! *tangled* (inverted, or in a body that overlaps itself) are evaluated with the model's
+//! recovery form, Irving's clamp at [`DEFAULT_RECOVERY_THRESHOLD`], until they are untangled (see
+//! [`crate::elastic::recovery`]).
 //!
 //! ```
 //! use tetsim::material::{Lame, Material, Model, ModelKind};
@@ -27,6 +34,7 @@
 pub mod clamp;
 pub mod corotated;
 pub mod isotropic;
+pub mod levelled;
 pub mod linear;
 pub mod mooney_rivlin;
 pub mod neo_hookean;
@@ -36,6 +44,7 @@ pub mod stable_neo_hookean;
 pub use clamp::{Clamped, StretchClamp};
 pub use corotated::Corotated;
 pub use isotropic::{Derivatives, ExtendedLog, Invertible, Isotropic};
+pub use levelled::LevelledNeoHookean;
 pub use linear::LinearElastic;
 pub use mooney_rivlin::MooneyRivlin;
 pub use neo_hookean::NeoHookean;
@@ -43,6 +52,16 @@ pub use st_venant_kirchhoff::StVenantKirchhoff;
 pub use stable_neo_hookean::StableNeoHookean;
 
 use crate::math::{Mat3, Svd, Vec3};
+
+/// The default inversion threshold: every model is exactly its formula wherever every principal
+/// stretch is at least 0.1 (90 % compression along one axis); below it the model's extension
+/// acts (SPEC §3).
+pub const DEFAULT_INVERSION_THRESHOLD: f64 = 0.1;
+
+/// The default recovery threshold: a tangled element is evaluated with Irving's clamp of the
+/// stretches below 0.6 (see [`crate::elastic::recovery`]). Measured on 172 collapsed and
+/// scrambled starts: 0.6 brings every one back.
+pub const DEFAULT_RECOVERY_THRESHOLD: f64 = 0.6;
 
 /// How the stress differential treats the indefinite parts of ∂P/∂F, per element.
 ///
@@ -525,6 +544,18 @@ pub enum Model {
     MooneyRivlin(Invertible<Clamped<MooneyRivlin>>),
     /// Linear elasticity (see [`LinearElastic`]).
     Linear(LinearElastic),
+    /// Neo-Hookean with a levelled log: the form of collapsed tangled elements of a Neo-Hookean
+    /// material (see [`LevelledNeoHookean`]); no scene names it.
+    NeoHookeanLevelled(Invertible<LevelledNeoHookean>),
+}
+
+/// The two forms a model's tangled elements are evaluated with (see [`Model::recovery`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecoveryForms {
+    /// While the body has a collapsed or inverted tet.
+    pub collapsed: Model,
+    /// Once no tet is inverted but the body still overlaps itself.
+    pub overlapping: Model,
 }
 
 /// Run `$body` with `$m` bound to the concrete material inside a [`Model`] (an `Invertible<_>`,
@@ -541,19 +572,29 @@ macro_rules! with_model {
             $crate::material::Model::StVenantKirchhoff($m) => $body,
             $crate::material::Model::MooneyRivlin($m) => $body,
             $crate::material::Model::Linear($m) => $body,
+            $crate::material::Model::NeoHookeanLevelled($m) => $body,
         }
     };
 }
 
 impl Model {
-    /// A model of the given kind with its default parameters (inversion thresholds, the
+    /// A model of the given kind with its default parameters (inversion threshold, the
     /// Mooney-Rivlin split), from the small-strain Lamé parameters.
     pub fn new(kind: ModelKind, lame: Lame) -> Self {
+        Self::with_threshold(kind, lame, DEFAULT_INVERSION_THRESHOLD)
+    }
+
+    /// A model of the given kind with the inversion threshold ε (a stretch in (0, 1): the model is
+    /// its formula wherever every principal stretch is at least ε); models without an extension
+    /// ignore it.
+    pub fn with_threshold(kind: ModelKind, lame: Lame, threshold: f64) -> Self {
         match kind {
-            ModelKind::NeoHookean => Model::NeoHookean(Invertible::new(NeoHookean::new(lame))),
-            ModelKind::NeoHookeanClamped => {
-                Model::NeoHookeanClamped(Invertible::new(NeoHookean::clamped(lame)))
+            ModelKind::NeoHookean => {
+                Model::NeoHookean(Invertible::new(NeoHookean::with_threshold(lame, threshold)))
             }
+            ModelKind::NeoHookeanClamped => Model::NeoHookeanClamped(Invertible::new(
+                NeoHookean::clamped_with_threshold(lame, threshold),
+            )),
             ModelKind::Corotated => Model::Corotated(Invertible::new(Corotated::new(lame))),
             ModelKind::StableNeoHookean => {
                 Model::StableNeoHookean(Invertible::new(StableNeoHookean::new(lame)))
@@ -561,10 +602,77 @@ impl Model {
             ModelKind::StVenantKirchhoff => {
                 Model::StVenantKirchhoff(Invertible::new(StVenantKirchhoff::new(lame)))
             }
-            ModelKind::MooneyRivlin => {
-                Model::MooneyRivlin(Invertible::new(MooneyRivlin::clamped(lame)))
-            }
+            ModelKind::MooneyRivlin => Model::MooneyRivlin(Invertible::new(
+                MooneyRivlin::clamped_with_threshold(lame, threshold),
+            )),
             ModelKind::Linear => Model::Linear(LinearElastic::new(lame)),
+        }
+    }
+
+    /// The small-strain Lamé parameters the model was made from.
+    pub fn lame(&self) -> Lame {
+        match self {
+            Model::NeoHookean(m) => m.model.lame,
+            Model::NeoHookeanClamped(m) => m.model.model.lame,
+            Model::Corotated(m) => m.model.lame,
+            Model::StableNeoHookean(m) => m.model.lame,
+            Model::StVenantKirchhoff(m) => m.model.lame,
+            Model::MooneyRivlin(m) => {
+                let mr = &m.model.model;
+                let mu = 2.0 * (mr.c10 + mr.c01);
+                Lame {
+                    mu,
+                    lambda: mr.kappa - 2.0 * mu / 3.0,
+                }
+            }
+            Model::Linear(m) => m.lame,
+            Model::NeoHookeanLevelled(m) => m.model.lame,
+        }
+    }
+
+    /// The inversion threshold ε of a model with an extension below it (None for the others).
+    pub fn inversion_threshold(&self) -> Option<f64> {
+        match self {
+            Model::NeoHookean(m) => Some(m.model.threshold),
+            Model::NeoHookeanClamped(m) => Some(m.model.clamp.threshold),
+            Model::MooneyRivlin(m) => Some(m.model.clamp.threshold),
+            _ => None,
+        }
+    }
+
+    /// The forms tangled elements of this model are evaluated with (see
+    /// [`crate::elastic::recovery`]), both the model itself where every stretch is at least
+    /// `threshold`: while the body has collapsed or inverted tets, and once it only overlaps
+    /// itself. For Neo-Hookean the first is [`LevelledNeoHookean`] (it opens collapsed bodies
+    /// fast), the second Irving's clamp with a 2μ spring and push (it undoes folds); Mooney-Rivlin
+    /// uses the clamp for both. None for the models without one (corotated, stable Neo-Hookean,
+    /// St. Venant-Kirchhoff, linear: their own formula is used) and for a threshold of 0
+    /// (recovery off).
+    pub fn recovery(&self, threshold: f64) -> Option<RecoveryForms> {
+        if threshold <= 0.0 {
+            return None;
+        }
+        let lame = self.lame();
+        match self {
+            Model::NeoHookean(_) | Model::NeoHookeanClamped(_) | Model::NeoHookeanLevelled(_) => {
+                Some(RecoveryForms {
+                    collapsed: Model::NeoHookeanLevelled(Invertible::new(LevelledNeoHookean::new(
+                        lame, threshold,
+                    ))),
+                    overlapping: Model::NeoHookeanClamped(Invertible::new(NeoHookean::recovery(
+                        lame, threshold,
+                    ))),
+                })
+            }
+            Model::MooneyRivlin(_) => {
+                let clamp =
+                    Model::MooneyRivlin(Invertible::new(MooneyRivlin::recovery(lame, threshold)));
+                Some(RecoveryForms {
+                    collapsed: clamp,
+                    overlapping: clamp,
+                })
+            }
+            _ => None,
         }
     }
 
@@ -578,6 +686,7 @@ impl Model {
             Model::StVenantKirchhoff(_) => ModelKind::StVenantKirchhoff,
             Model::MooneyRivlin(_) => ModelKind::MooneyRivlin,
             Model::Linear(_) => ModelKind::Linear,
+            Model::NeoHookeanLevelled(_) => ModelKind::NeoHookean,
         }
     }
 
@@ -624,6 +733,7 @@ macro_rules! with_svd_model {
             Model::StableNeoHookean($m) => $body,
             Model::StVenantKirchhoff($m) => $body,
             Model::MooneyRivlin($m) => $body,
+            Model::NeoHookeanLevelled($m) => $body,
             Model::Linear($l) => $linear,
         }
     };

@@ -20,18 +20,15 @@
 //!   force: every function of (I₁, I₂, J) alone has a zero gradient there.
 //!
 //! **The clamp** (`mooney-rivlin` is [`MooneyRivlin::clamped`]): the model is wrapped in
-//! [`Clamped`], so it only ever sees stretches of at least ¾·0.6 = 0.45 (J ≥ 0.09), and a 2μ
-//! spring and a 2μ push restore the stretches the clamp takes away (see [`super::clamp`]).
-//! Without it the Taylor-extended J^(−2/3) grows quadratically with the depth of an inversion,
-//! and a ball scrambled inside a small box (half its tets inside out) stored so much energy that
-//! it flew apart: 1.35e7 J of kinetic energy in the first frame, 7.5e5 edge lengths from rest
-//! after 300 frames, elastic energy 1e38 J and growing. With the clamp it comes back (8e-4
-//! edges), and none of 172 tangled starts stays folded (`cargo run --release --example
-//! recovery_diag -- model=mr start=all meshes=beam,beam4,beam8,beam632
-//! seeds=7,1,2,3,4,5,6,8`). The price is Newton's work where many tets are crushed flat:
-//! `scenes/squash_release.toml` with this model retried 21 steps (4 without the clamp), left 2
-//! frames unconverged (none) and its audit flagged a 36 J gain in one frame. The energy that
-//! never blows up is the default; [`MooneyRivlin::new`] is the model alone.
+//! [`Clamped`] at the inversion threshold ε (default 0.1), with the spring and push matched to
+//! the model at ε ([`Clamped::matching`]), and the wrapped model's own thresholds at the clamp's
+//! floor ¾ε (the stretches) and its cube (J): it only ever sees stretches of at least ¾ε, where it
+//! is the formula, so `mooney-rivlin` is exactly its formula wherever every stretch is at least
+//! ε, and below ε the compressive resistance keeps growing at the formula's stiffness at ε. The
+//! Taylor-extended J^(−2/3) alone grows so fast with the depth of an inversion that a ball
+//! scrambled inside a small box flew apart (1.35e7 J of kinetic energy in its first frame);
+//! tangled elements are evaluated with [`MooneyRivlin::recovery`] instead (the clamp at a
+//! stretch of 0.6 with a 2μ spring and push, see [`crate::elastic::recovery`]).
 //!
 //! Above both thresholds (every σₖ ≥ the stretch threshold and J ≥ the volume threshold) the model
 //! is exactly the analytic one. In principal stretches, with `I₂ = Σᵢ<ⱼ σᵢ²σⱼ²`, `cₖ = ∂J/∂σₖ`,
@@ -40,10 +37,10 @@
 //! `2A + 2B(σₘ² ∓ σᵢσⱼ) ∓ Dσₘ + κL·{(ℓ′ᵢ − ℓ′ⱼ)/(σᵢ − σⱼ), (ℓ′ᵢ + ℓ′ⱼ)/(σᵢ + σⱼ)}`, closed forms.
 //! The 3×3 block has no simple closed-form eigensystem (`analytic` uses the eigensolver).
 
-use super::Lame;
 use super::clamp::{Clamped, StretchClamp};
 use super::isotropic::{Derivatives, ExtendedLog, Isotropic, PAIRS};
 use super::stable_neo_hookean::cofactors;
+use super::{DEFAULT_INVERSION_THRESHOLD, Lame};
 use crate::math::{Mat3, Vec3};
 
 /// Default share r of the shear modulus carried by the Ī₂ term: C₀₁ = rμ/2, C₁₀ = (1 − r)μ/2.
@@ -57,9 +54,6 @@ pub const DEFAULT_STRETCH_THRESHOLD: f64 = 0.3;
 /// rest volume. Lower keeps the analytic model longer but makes the extension much stiffer
 /// (g″ ~ J^(−8/3)), which slows Newton on badly inverted starts.
 pub const DEFAULT_VOLUME_THRESHOLD: f64 = 0.3;
-
-/// Stretch threshold of the clamp `mooney-rivlin` wraps the model in.
-pub const DEFAULT_CLAMP_THRESHOLD: f64 = 0.6;
 
 /// Compressible Mooney-Rivlin in principal stretches (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,13 +76,29 @@ impl MooneyRivlin {
         Self::with_split(lame, DEFAULT_C01_FRACTION)
     }
 
-    /// The model of `mooney-rivlin`: the default split and thresholds, with the stretches
-    /// clamped below [`DEFAULT_CLAMP_THRESHOLD`], a 2μ restoring spring and a 2μ push (see the
-    /// module docs).
+    /// The model of `mooney-rivlin`: the default split, the stretches clamped below the default
+    /// inversion threshold (see the module docs).
     pub fn clamped(lame: Lame) -> Clamped<Self> {
+        Self::clamped_with_threshold(lame, DEFAULT_INVERSION_THRESHOLD)
+    }
+
+    /// `mooney-rivlin` with the clamp at `threshold`: the wrapped model's stretch threshold at
+    /// the floor ¾ε and its volume threshold at the floor's cube, so it is the formula for every
+    /// stretch the clamp lets through.
+    pub fn clamped_with_threshold(lame: Lame, threshold: f64) -> Clamped<Self> {
+        let floor = StretchClamp::floor_of(threshold);
+        let mut model = Self::new(lame);
+        model.log = ExtendedLog { eps: floor };
+        model.volume_threshold = floor * floor * floor;
+        Clamped::matching(model, threshold)
+    }
+
+    /// What tangled elements are evaluated with: the default thresholds behind the clamp at
+    /// `threshold` (default 0.6) with a 2μ spring and push (see [`super::clamp`]).
+    pub fn recovery(lame: Lame, threshold: f64) -> Clamped<Self> {
         Clamped {
             model: Self::new(lame),
-            clamp: StretchClamp::with_shear_modulus(DEFAULT_CLAMP_THRESHOLD, lame.mu),
+            clamp: StretchClamp::with_shear_modulus(threshold, lame.mu),
         }
     }
 

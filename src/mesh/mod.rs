@@ -8,6 +8,7 @@ pub mod bodies;
 pub mod doctor;
 pub mod generate;
 pub mod ordering;
+pub mod overlap;
 
 use crate::error::MeshProblem;
 use crate::math::{Mat3, Vec3};

@@ -64,7 +64,7 @@ pub struct RankSetup {
     /// Material index of each tet (empty: one material).
     pub tet_material: Vec<u8>,
     /// (model, μ, λ, density): the base material, then the regions'.
-    pub materials: Vec<(u8, f64, f64, f64)>,
+    pub materials: Vec<WireMaterial>,
     /// The constraints on the rank's vertices (owned and ghosts).
     pub constraints: Vec<WireConstraint>,
     /// The loads on its owned vertices: (vertex, force) and ramp duration per load.
@@ -101,55 +101,55 @@ pub struct WireConstraint {
     pub targets: Option<Vec<V3>>,
 }
 
-/// The Lamé parameters a model was made from, when `Model::new(kind, lamé)` gives it back
-/// exactly (every model a scene makes); None otherwise.
-fn lame_of(model: &Model) -> Option<Lame> {
-    let lame = match model {
-        Model::NeoHookean(m) => m.model.lame,
-        Model::NeoHookeanClamped(m) => m.model.model.lame,
-        Model::Corotated(m) => m.model.lame,
-        Model::StableNeoHookean(m) => m.model.lame,
-        Model::StVenantKirchhoff(m) => m.model.lame,
-        Model::MooneyRivlin(m) => {
-            let mr = &m.model.model;
-            let mu = 2.0 * (mr.c10 + mr.c01);
-            Lame {
-                mu,
-                lambda: mr.kappa - 2.0 * mu / 3.0,
-            }
-        }
-        Model::Linear(m) => m.lame,
-    };
-    (Model::new(model.kind(), lame) == *model).then_some(lame)
+/// A material as sent: kind, the small-strain Lamé parameters (μ, λ), density, inversion
+/// threshold and recovery threshold.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WireMaterial {
+    kind: u8,
+    mu: f64,
+    lambda: f64,
+    density: f64,
+    threshold: f64,
+    recovery: f64,
 }
 
-fn material_wire(model: &Model, density: f64) -> Result<(u8, f64, f64, f64), String> {
-    let lame = lame_of(model).ok_or_else(|| {
-        format!(
+fn material_wire(model: &Model, density: f64, recovery: f64) -> Result<WireMaterial, String> {
+    let lame = model.lame();
+    let threshold = model
+        .inversion_threshold()
+        .unwrap_or(crate::material::DEFAULT_INVERSION_THRESHOLD);
+    if Model::with_threshold(model.kind(), lame, threshold) != *model {
+        return Err(format!(
             "the {:?} material's parameters cannot be sent to the MPI ranks yet",
             model.kind()
-        )
-    })?;
+        ));
+    }
     let kind = ModelKind::ALL
         .iter()
         .position(|k| *k == model.kind())
         .expect("every kind is listed") as u8;
-    Ok((kind, lame.mu, lame.lambda, density))
+    Ok(WireMaterial {
+        kind,
+        mu: lame.mu,
+        lambda: lame.lambda,
+        density,
+        threshold,
+        recovery,
+    })
 }
 
-fn material_of(wire: &(u8, f64, f64, f64)) -> Result<(Model, f64), String> {
+fn material_of(wire: &WireMaterial) -> Result<(Model, f64, f64), String> {
     let kind = *ModelKind::ALL
-        .get(wire.0 as usize)
-        .ok_or_else(|| format!("unknown material kind {}", wire.0))?;
+        .get(wire.kind as usize)
+        .ok_or_else(|| format!("unknown material kind {}", wire.kind))?;
+    let lame = Lame {
+        mu: wire.mu,
+        lambda: wire.lambda,
+    };
     Ok((
-        Model::new(
-            kind,
-            Lame {
-                mu: wire.1,
-                lambda: wire.2,
-            },
-        ),
-        wire.3,
+        Model::with_threshold(kind, lame, wire.threshold),
+        wire.density,
+        wire.recovery,
     ))
 }
 
@@ -180,7 +180,7 @@ pub struct Cutter<'w, 'a> {
     parts: Vec<Part>,
     layouts: Vec<Layout>,
     pattern: crate::linear::sparse::BlockPattern,
-    materials: Vec<(u8, f64, f64, f64)>,
+    materials: Vec<WireMaterial>,
     mean_edge_length: f64,
 }
 
@@ -191,9 +191,9 @@ impl<'w, 'a> Cutter<'w, 'a> {
         let body = whole.body;
         let mesh = &body.mesh;
         let (model, density, regions, _) = body.materials();
-        let mut materials = vec![material_wire(&model, density)?];
-        for (m, d) in regions {
-            materials.push(material_wire(m, *d)?);
+        let mut materials = vec![material_wire(&model, density, body.recovery_threshold(0))?];
+        for (k, (m, d)) in regions.iter().enumerate() {
+            materials.push(material_wire(m, *d, body.recovery_threshold(k + 1))?);
         }
         let parts = partition.parts(mesh);
         let layouts = partition.layouts(&parts);
@@ -236,7 +236,7 @@ fn setup(
     layout: &Layout,
     (rank, ranks): (usize, usize),
     mean_edge_length: f64,
-    materials: &[(u8, f64, f64, f64)],
+    materials: &[WireMaterial],
     tet_material: &[u8],
 ) -> RankSetup {
     let body = whole.body;
@@ -386,12 +386,14 @@ impl RankSetup {
             self.positions.iter().map(vec3).collect(),
             self.tets.iter().map(|t| t.map(|v| v as usize)).collect(),
         );
-        let (model, density) = material_of(&self.materials[0])?;
-        let regions = self.materials[1..]
+        let materials = self
+            .materials
             .iter()
             .map(material_of)
             .collect::<Result<Vec<_>, _>>()?;
-        ElasticBody::from_raw_pieces(
+        let (model, density, _) = materials[0];
+        let regions = materials[1..].iter().map(|&(m, d, _)| (m, d)).collect();
+        let mut body = ElasticBody::from_raw_pieces(
             mesh,
             RawPieces {
                 model,
@@ -402,7 +404,11 @@ impl RankSetup {
                 volume: self.volume.clone(),
                 mass: self.mass.clone(),
             },
-        )
+        )?;
+        for (k, &(_, _, recovery)) in materials.iter().enumerate() {
+            body.set_recovery_threshold(k, recovery);
+        }
+        Ok(body)
     }
 
     /// This rank's boundary.

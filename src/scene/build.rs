@@ -34,7 +34,7 @@ impl Scene {
 
     /// Model and density of the i-th `[[volume]]`, with its body's `[material]` values where it
     /// is silent.
-    pub fn volume_material(&self, i: usize) -> std::result::Result<(Model, f64), String> {
+    pub fn volume_material(&self, i: usize) -> std::result::Result<(Model, f64, f64), String> {
         let v = &self.volume[i];
         let m = self.body_material(self.body_index(v.body.as_deref()));
         let own = v.youngs_modulus.is_some()
@@ -50,7 +50,21 @@ impl Scene {
         if !(density > 0.0 && density.is_finite()) {
             return Err(format!("density must be positive (kg/m³), got {density}"));
         }
-        Ok((Model::new(v.model.unwrap_or(m.model), lame), density))
+        let (threshold, recovery) = thresholds(
+            v.inversion_threshold.or(m.inversion_threshold),
+            v.recovery_threshold.or(m.recovery_threshold),
+        )?;
+        let model = Model::with_threshold(v.model.unwrap_or(m.model), lame, threshold);
+        Ok((model, density, recovery))
+    }
+
+    /// The model of a `[material]` table (of body 0 or a `[[body]]`) and its recovery threshold.
+    pub fn material_model(
+        m: &super::schema::MaterialSpec,
+    ) -> std::result::Result<(Model, f64), String> {
+        let lame = lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)?;
+        let (threshold, recovery) = thresholds(m.inversion_threshold, m.recovery_threshold)?;
+        Ok((Model::with_threshold(m.model, lame, threshold), recovery))
     }
 
     /// Build the mesh of `[mesh]` (body 0): read the file or run the generator.
@@ -447,8 +461,9 @@ impl Simulation {
             Some(r) => r.apply(&file_mesh),
             None => file_mesh,
         };
-        let lame = scene.lame().map_err(|m| Error::parameter("material", m))?;
-        let model = Model::new(scene.material.model, lame);
+        let (model, recovery) =
+            Scene::material_model(&scene.material).map_err(|m| Error::parameter("material", m))?;
+        let mut recoveries = vec![recovery];
         let mesh_path = scene.mesh.file.as_ref().map(|f| scene.resolve(f));
         let membership = Membership::new(&bodies, renumbering.as_ref());
         let mut regions = Vec::with_capacity(bodies.count() - 1 + scene.volume.len());
@@ -456,18 +471,20 @@ impl Simulation {
         // them, so that a volume inside a body overrides the body's material.
         for (b, spec) in scene.body.iter().enumerate() {
             let m = &spec.material;
-            let lame = lame_from(m.youngs_modulus, m.poisson_ratio, m.mu, m.lambda)
+            let (model, recovery) = Scene::material_model(m)
                 .map_err(|e| scene.error_at(&key!["body", b, "material"], e))?;
+            recoveries.push(recovery);
             regions.push(MaterialRegion {
-                model: Model::new(m.model, lame),
+                model,
                 density: m.density,
                 tets: membership.tets_of(b as u32 + 1),
             });
         }
         for (i, volume) in scene.volume.iter().enumerate() {
-            let (model, density) = scene
+            let (model, density, recovery) = scene
                 .volume_material(i)
                 .map_err(|m| scene.error_at(&key!["volume", i], m))?;
+            recoveries.push(recovery);
             let tets = select_tets(&volume.region, &mesh)
                 .and_then(|t| membership.keep_tets(volume.body.as_deref(), t))
                 .map_err(|m| scene.error_at(&key!["volume", i, "region"], m))?;
@@ -477,7 +494,7 @@ impl Simulation {
                 tets,
             });
         }
-        let body = ElasticBody::with_regions(mesh, model, scene.material.density, regions)
+        let mut body = ElasticBody::with_regions(mesh, model, scene.material.density, regions)
             .map_err(|e| match e {
                 Error::Mesh { problem, .. } => Error::Mesh {
                     path: mesh_path.clone(),
@@ -485,6 +502,9 @@ impl Simulation {
                 },
                 other => other,
             })?;
+        for (k, recovery) in recoveries.into_iter().enumerate() {
+            body.set_recovery_threshold(k, recovery);
+        }
         let boundary =
             scene.build_boundary_of(&body.mesh, renumbering.as_ref(), Some(&membership))?;
         let initial = scene.initial_state_of(&body, renumbering.as_ref(), &bodies)?;
@@ -513,6 +533,29 @@ impl Simulation {
 }
 
 /// Lamé parameters from (E, ν) (defaults 1e5 Pa, 0.3) or (μ, λ), range-checked.
+/// The inversion and recovery thresholds of a material, defaults filled in and ranges checked.
+fn thresholds(
+    inversion: Option<f64>,
+    recovery: Option<f64>,
+) -> std::result::Result<(f64, f64), String> {
+    use crate::material::{DEFAULT_INVERSION_THRESHOLD, DEFAULT_RECOVERY_THRESHOLD};
+    let inversion = inversion.unwrap_or(DEFAULT_INVERSION_THRESHOLD);
+    if !(inversion > 0.0 && inversion <= 0.9) {
+        return Err(format!(
+            "inversion_threshold is a stretch in (0, 0.9] (0.1: the model is its formula down to \
+             90 % compression), got {inversion}"
+        ));
+    }
+    let recovery = recovery.unwrap_or(DEFAULT_RECOVERY_THRESHOLD);
+    if !(0.0..=0.95).contains(&recovery) {
+        return Err(format!(
+            "recovery_threshold is a stretch in [0, 0.95] (0 turns the recovery of tangled \
+             elements off), got {recovery}"
+        ));
+    }
+    Ok((inversion, recovery))
+}
+
 fn lame_from(
     e: Option<f64>,
     nu: Option<f64>,

@@ -212,6 +212,22 @@ pub struct MaterialSpec {
     /// Density, kg/m³. Default 1000.
     #[serde(deserialize_with = "units::scalar::<_, units::Density>")]
     pub density: f64,
+    /// The stretch (unit-free, in (0, 0.9]) below which the model's inversion extension acts:
+    /// the model is exactly its formula wherever every principal stretch is at least this.
+    /// Default 0.1 (90 % compression along one axis). Models without an extension ignore it.
+    #[serde(
+        deserialize_with = "units::optional::<_, units::Ratio>",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub inversion_threshold: Option<f64>,
+    /// The stretch (unit-free, in [0, 0.95]) below which a *tangled* element (inverted, or in a
+    /// body that overlaps itself) is evaluated with Irving's clamp until the body is untangled;
+    /// 0 turns this recovery off. Default 0.6.
+    #[serde(
+        deserialize_with = "units::optional::<_, units::Ratio>",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub recovery_threshold: Option<f64>,
 }
 
 impl Default for MaterialSpec {
@@ -223,6 +239,8 @@ impl Default for MaterialSpec {
             mu: None,
             lambda: None,
             density: 1000.0,
+            inversion_threshold: None,
+            recovery_threshold: None,
         }
     }
 }
@@ -255,6 +273,20 @@ pub struct VolumeSpec {
     /// Density, kg/m³.
     #[serde(default, deserialize_with = "units::optional::<_, units::Density>")]
     pub density: Option<f64>,
+    /// The inversion threshold (see `[material]`).
+    #[serde(
+        default,
+        deserialize_with = "units::optional::<_, units::Ratio>",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub inversion_threshold: Option<f64>,
+    /// The recovery threshold (see `[material]`).
+    #[serde(
+        default,
+        deserialize_with = "units::optional::<_, units::Ratio>",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub recovery_threshold: Option<f64>,
 }
 
 /// A region, as TOML writes it: `{ box = { min, max } }`, `{ plane = { point, normal } }`,

@@ -22,6 +22,9 @@ impl Simulation {
             pattern_generation: self.newton.potential().pattern_generation(),
             solver: self.newton.solver_state(),
             contact: self.contact().map(|c| c.saved_state()),
+            tangled: self.body.tangled_list(),
+            unfolding: self.body.unfolding().map(|u| (u.best as u64, u.stalled)),
+            inverted_at_end: self.inverted_at_end as u64,
         }
     }
 
@@ -48,6 +51,18 @@ impl Simulation {
                 "the checkpoint and the scene disagree on contact",
             ));
         }
+        // Before the forces below: a tangled element's forces are its recovery form's.
+        self.body
+            .set_tangled_list(
+                &saved.tangled,
+                saved
+                    .unfolding
+                    .map(|(best, stalled)| crate::elastic::recovery::Unfolding {
+                        best: best as usize,
+                        stalled,
+                    }),
+            )
+            .map_err(|e| Error::parameter("resume", e))?;
         self.newton
             .restore_solver_state(&saved.solver, &self.body.mesh.positions)
             .map_err(|e| Error::parameter("resume", e))?;
@@ -79,6 +94,8 @@ impl Simulation {
         self.saved.clone_from(&self.state);
         self.frame = saved.frame;
         self.ramp_frames = Some(saved.ramp_frames);
+        self.inverted_at_end = saved.inverted_at_end as usize;
+        self.tangled_total = saved.tangled.len();
         Ok(())
     }
 }

@@ -363,3 +363,68 @@ fn the_cantilever_written_with_units_writes_the_bytes_of_the_si_one() {
     let reactions = last_row(&dir.path().join("units/reactions.csv"));
     assert!(column(&reactions, "clamp_fy") > 0.0, "{reactions:?}");
 }
+
+/// A unit cube on rollers (x = 0, y = 0, z = 0 faces held in their normal direction only) whose
+/// x = 1 face, a named `[[fixed]]`, is pushed in quasistatically to `s` of its length: the
+/// homogeneous state F = diag(s, t, t) that linear tets represent exactly.
+fn rollers(s: f64) -> String {
+    format!(
+        "gravity = [0, 0, 0]\n\
+         [mesh]\ngenerator = {{ box = {{ min = [0, 0, 0], max = [1, 1, 1], cells = [2, 2, 2] }} }}\n\
+         [material]\nmodel = \"neo-hookean\"\nyoungs_modulus = 1e6\npoisson_ratio = 0.3\n\
+         [[fixed]]\nregion = {{ physical = \"xmin\" }}\ncomponents = [\"x\"]\n\
+         [[fixed]]\nregion = {{ physical = \"ymin\" }}\ncomponents = [\"y\"]\n\
+         [[fixed]]\nregion = {{ physical = \"zmin\" }}\ncomponents = [\"z\"]\n\
+         [[fixed]]\nname = \"press\"\nregion = {{ physical = \"xmax\" }}\ncomponents = [\"x\"]\n\
+         motion = {{ translate = [{}, 0, 0] }}\n\
+         [solver]\nintegrator = \"quasistatic\"\nframes = 10\nnewton_tolerance = 1e-13\n\
+         newton_max_iterations = 60\ncg_tolerance = 1e-14\n",
+        s - 1.0
+    )
+}
+
+#[test]
+fn a_cube_pressed_to_half_and_a_third_of_its_length_is_neo_hookean() {
+    // SPEC §2–3: Neo-Hookean is its formula down to a stretch of 0.1. Lateral faces free:
+    // P₂₂ = 0 gives μ(t² − 1) + λ ln(s t²) = 0, and the press carries P₁₁ = μ(s − 1/s) +
+    // λ ln(s t²)/s over the unit rest area. With the old inversion threshold of 0.6 tetsim
+    // reported 0.889 MN at s = 0.5 (5 % low) and 0.623 MN at s = 0.35 (65 % low).
+    let (e, nu) = (1e6_f64, 0.3_f64);
+    let (mu, lambda) = (
+        e / (2.0 * (1.0 + nu)),
+        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+    );
+    let dir = tempfile::tempdir().unwrap();
+    for s in [0.5, 0.35] {
+        let mut t = 1.0_f64;
+        for _ in 0..100 {
+            let g = mu * (t * t - 1.0) + lambda * (s * t * t).ln();
+            let dg = 2.0 * mu * t + 2.0 * lambda / t;
+            t -= g / dg;
+        }
+        let press = mu * (s - 1.0 / s) + lambda * (s * t * t).ln() / s;
+        let out = format!("s{s}");
+        run_ok(dir.path(), &format!("{out}.toml"), &rollers(s), &out);
+        let reactions = last_row(&dir.path().join(&out).join("reactions.csv"));
+        let fx = column(&reactions, "press_fx");
+        assert!(
+            ((fx - press) / press).abs() < 1e-6,
+            "s = {s}: press force {fx:.6e} N, Neo-Hookean {press:.6e} N"
+        );
+        // The lateral stretch, read off the last frame's points (an independent reader).
+        let frame =
+            tetsim::io::read_vtu_frame(&dir.path().join(&out).join("frame_0010.vtu")).unwrap();
+        let top = frame.points.iter().map(|p| p.y).fold(f64::MIN, f64::max);
+        let side = frame.points.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+        let front = frame.points.iter().map(|p| p.x).fold(f64::MIN, f64::max);
+        assert!(
+            (top - t).abs() < 1e-6 * t,
+            "s = {s}: lateral stretch {top}, expected {t}"
+        );
+        assert!(
+            (side - t).abs() < 1e-6 * t,
+            "s = {s}: lateral stretch {side}, expected {t}"
+        );
+        assert!((front - s).abs() < 1e-12, "s = {s}: pressed to {front}");
+    }
+}

@@ -10,7 +10,7 @@ use std::path::Path;
 use super::{stderr, tetsim};
 use tetsim::io::FieldData;
 use tetsim::io::surface_vtu::read_surface_vtu;
-use tetsim::output::{CONTACT_COLUMNS, STEPS_HEADER};
+use tetsim::output::{STEPS_HEADER, steps_header};
 
 const MESH: &str = "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1], cells = [2,2,2] } }\n\
                     [solver]\nframes = 2\n";
@@ -176,16 +176,15 @@ fn still_obstacles_are_written_once_and_frames_gain_contact_output() {
     }
     let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(
-        lines.next().unwrap(),
-        format!("{STEPS_HEADER},{CONTACT_COLUMNS}")
-    );
-    let columns = STEPS_HEADER.split(',').count() + 4;
+    assert_eq!(lines.next().unwrap(), steps_header(true));
+    // The contract's columns, the four contact columns, then tangled_elements.
+    let columns = STEPS_HEADER.split(',').count() + 5;
     for row in lines {
         let cells: Vec<&str> = row.split(',').collect();
         assert_eq!(cells.len(), columns, "{row}");
-        assert!(cells[columns - 4].parse::<usize>().is_ok(), "{row}");
-        for cell in &cells[columns - 2..] {
+        assert!(cells[columns - 5].parse::<usize>().is_ok(), "{row}");
+        assert!(cells[columns - 1].parse::<usize>().is_ok(), "{row}");
+        for cell in &cells[columns - 3..columns - 1] {
             assert!(cell.parse::<f64>().unwrap().is_finite(), "{row}");
         }
     }
@@ -225,7 +224,7 @@ fn contact_table_alone_turns_contact_output_on() {
     let dir = tempfile::tempdir().unwrap();
     let out = run(dir.path(), &format!("{MESH}[contact]\nself = false\n"));
     let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
-    assert!(csv.starts_with(&format!("{STEPS_HEADER},{CONTACT_COLUMNS}\n")));
+    assert!(csv.starts_with(&format!("{}\n", steps_header(true))));
     // No obstacles: an empty surface, still listed so that readers find the file.
     assert_eq!(
         names(&out, "obstacles"),
@@ -239,8 +238,11 @@ fn a_scene_without_contact_writes_no_contact_output() {
     let out = run(dir.path(), MESH);
     assert!(names(&out, "obstacles").is_empty());
     let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
-    assert!(csv.starts_with(&format!("{STEPS_HEADER}\n")), "{csv}");
-    let columns = STEPS_HEADER.split(',').count();
+    assert!(
+        csv.starts_with(&format!("{}\n", steps_header(false))),
+        "{csv}"
+    );
+    let columns = STEPS_HEADER.split(',').count() + 1;
     assert!(csv.lines().all(|l| l.split(',').count() == columns));
     let vtu = tetsim::io::read_vtu_frame(&out.join("frame_0002.vtu")).unwrap();
     assert!(vtu.point_field("contact_force").is_none());

@@ -323,3 +323,52 @@ fn probes_and_reactions_continue_after_a_kill_and_go_with_a_new_run() {
     assert!(!whole_dir.join("probes.csv").exists());
     assert!(!whole_dir.join("reactions.csv").exists());
 }
+
+#[test]
+fn a_run_resumed_while_elements_are_tangled_writes_the_bytes_of_one_never_stopped() {
+    // The tangled-element flags and the recovery form in use are in the checkpoint: stopped
+    // after frame 1 of a cube flattened onto a plane (every element tangled, the collapsed form)
+    // and resumed, the run goes on exactly as one never stopped (the forms change at frame 2).
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::copy(
+        scenes.join("meshes/cube_flattened.txt"),
+        dir.path().join("meshes/cube_flattened.txt"),
+    )
+    .unwrap();
+    std::fs::copy(
+        scenes.join("squash_recover.toml"),
+        dir.path().join("s.toml"),
+    )
+    .unwrap();
+    let args = ["run", "s.toml", "--deterministic", "--no-pictures", "-q"];
+    let whole = tetsim(
+        dir.path(),
+        &[&args[..], &["--frames", "5", "--out", "whole"]].concat(),
+    );
+    assert!(whole.status.success(), "{}", stderr(&whole));
+    let part = tetsim(
+        dir.path(),
+        &[&args[..], &["--frames", "1", "--out", "part"]].concat(),
+    );
+    assert!(part.status.success(), "{}", stderr(&part));
+    let rest = tetsim(
+        dir.path(),
+        &["run", "--resume", "part", "--frames", "5", "-q"],
+    );
+    assert!(rest.status.success(), "{}", stderr(&rest));
+    let steps = std::fs::read_to_string(dir.path().join("whole/steps.csv")).unwrap();
+    let tangled: Vec<&str> = steps
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    assert_eq!(tangled[1], "1296", "{steps}");
+    assert_eq!(tangled[5], "0", "{steps}");
+    for name in ["steps.csv", "frame_0005.vtu", "frame_0002.vtu"] {
+        let a = std::fs::read(dir.path().join("whole").join(name)).unwrap();
+        let b = std::fs::read(dir.path().join("part").join(name)).unwrap();
+        assert!(a == b, "{name} differs from the run never stopped");
+    }
+}

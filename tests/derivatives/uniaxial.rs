@@ -15,8 +15,8 @@
 
 use super::*;
 
-/// Stretches along the load, from compression to stretch, above every inversion threshold.
-const STRETCHES: [f64; 6] = [0.6, 0.8, 0.95, 1.05, 1.3, 1.8];
+/// Stretches along the load, from compression to stretch, above every inversion threshold (0.1).
+const STRETCHES: [f64; 8] = [0.12, 0.3, 0.6, 0.8, 0.95, 1.05, 1.3, 1.8];
 
 /// The diagonal of `R₁ᵀ·P·R₂ᵀ` at `F = R₁·diag(λ₁, t, t)·R₂`, checking that P has no shear there.
 fn principal_stress(model: &Model, r: &(Mat3, Mat3), l1: f64, t: f64) -> Vec3 {
@@ -110,9 +110,12 @@ pub fn check_uniaxial(model: &Model) {
             "{kind:?}: P₁₁ = {} but the formula gives {p11} at λ₁ = {l1}, t = {t}",
             p[0]
         );
-        // Compression shortens and pulls in, stretch the other way.
+        // Compression shortens and bulges, stretch the other way (stable Neo-Hookean's own
+        // formula pulls in again under deep compression: its t is 0.89 at λ₁ = 0.3).
         assert_eq!(p[0] > 0.0, l1 > 1.0);
-        assert_eq!(t < 1.0, l1 > 1.0, "lateral stretch {t} at λ₁ = {l1}");
+        if l1 >= 0.6 {
+            assert_eq!(t < 1.0, l1 > 1.0, "lateral stretch {t} at λ₁ = {l1}");
+        }
     }
     // Small strain: every model reduces to linear elasticity with the user's E and ν.
     let h = 1e-5;
