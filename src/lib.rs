@@ -14,8 +14,11 @@
 //!
 //! ## Materials (SPEC §2, §3, §6)
 //! Models are written in principal stretches σ of the rotation-variant SVD
-//! `F = U·diag(σ)·Vᵀ` (det U = det V = +1, an inversion carried by σ₃ < 0), extended below an
-//! inversion threshold so that energy, stress and tangent are finite for every F. The tangent
+//! `F = U·diag(σ)·Vᵀ` (det U = det V = +1, an inversion carried by σ₃ < 0): each is exactly its
+//! formula wherever every stretch is at least the inversion threshold (0.1), and extended below it
+//! so that energy, stress and tangent are finite for every F and a crushed stretch's resistance
+//! keeps growing. Tangled elements (a collapsed or scrambled start, a tet that inverts) are
+//! evaluated with recovery forms until the body is untangled ([`elastic::recovery`]). The tangent
 //! ∂P/∂F splits in diagonal space into a 3×3 block and three 2×2 blocks whose negative
 //! eigenvalues are handled per element by a [`material::Definiteness`] strategy: `adaptive` (the
 //! default: Newton solves with Teran's projected tangent and switches to the exact one once it
@@ -27,8 +30,8 @@
 //! ([`material::DampingStiffness`]: Teran's projection by default, so damping only dissipates,
 //! or the exact K), the same under every strategy: strategies shape Newton's matrix, never the
 //! forces.
-//! Models ([`material::ModelKind`]): Neo-Hookean (plain, or inside Irving et al. 2004's clamped
-//! stretches as `neo-hookean-clamped`), corotated, Stable Neo-Hookean, St. Venant-Kirchhoff,
+//! Models ([`material::ModelKind`]): Neo-Hookean (with a Taylor-extended log below the
+//! threshold, or inside Irving et al. 2004's clamped stretches as `neo-hookean-clamped`), corotated, Stable Neo-Hookean, St. Venant-Kirchhoff,
 //! compressible Mooney-Rivlin, and linear elasticity (on F, not rotation invariant); all are
 //! parametrised by the small-strain Lamé parameters (μ, λ).
 //!
