@@ -17,6 +17,7 @@ mod checkpoint;
 mod control;
 mod monitoring;
 mod recovery;
+mod validity;
 
 use std::time::Instant;
 
@@ -241,9 +242,34 @@ impl Simulation {
             self.body.softest_youngs_modulus(),
             self.body.mesh.mean_edge_length(),
         );
-        if let Some(message) = term.intersection(&self.state.x) {
-            // "invalid contact: the initial state …": obstacles and bodies alike.
-            return Err(Error::parameter("contact", message));
+        // Where the obstacles stand at the start: a motion with duration 0 has already moved.
+        let start = self.clock_at(self.state.t);
+        term.place_obstacles(|duration| start.ramp(duration));
+        let inside = (0..setup_obstacles(&term)).find_map(|o| {
+            crate::mesh::overlap::first_point_inside(
+                &self.state.x,
+                &self.body.mesh.tets,
+                &term.obstacle_points(o),
+            )
+            .map(|(_, t)| {
+                let name = &term.setup().obstacles[o].name;
+                (
+                    Some(o),
+                    format!(
+                        "the initial state passes through {name}: it lies inside element {} of \
+                         the body",
+                        self.body.mesh.tet_id(t)
+                    ),
+                )
+            })
+        });
+        if let Some((obstacle, message)) =
+            inside.or_else(|| term.located_intersection(&self.state.x))
+        {
+            // "invalid contact: the initial state …": obstacles and bodies alike; an obstacle's
+            // index rides in the key, for the scene to point at its `[[obstacle]]` table.
+            let key = obstacle.map_or("contact".to_string(), |o| format!("obstacle.{o}"));
+            return Err(Error::parameter(key, message));
         }
         self.newton.potential_mut().contact = Some(term);
         Ok(self)
@@ -611,6 +637,12 @@ impl Simulation {
                 }
                 info.then(more);
             }
+            if info.converged
+                && let Some(reason) = self.step_violation()
+            {
+                info.converged = false;
+                info.failure = Some(reason);
+            }
             stats.absorb(&info);
             if let Some(contact) = &self.newton.potential().contact {
                 stats.contacts = contact.active_pairs();
@@ -663,6 +695,11 @@ impl Simulation {
         }
         (stats, true)
     }
+}
+
+/// How many obstacles a contact term has.
+fn setup_obstacles(term: &crate::contact::term::ContactTerm) -> usize {
+    term.setup().obstacles.len()
 }
 
 /// The audit's ledger at the initial state: its elastic energy and, for the quasistatic trapezoid

@@ -10,6 +10,8 @@ mod analyses;
 mod beam24;
 #[path = "cli/contact.rs"]
 mod contact;
+#[path = "cli/contact_trust.rs"]
+mod contact_trust;
 #[path = "cli/modes.rs"]
 mod modes;
 #[path = "cli/resume.rs"]

@@ -173,6 +173,11 @@ impl ElasticBody {
         self.recovery.thresholds[k]
     }
 
+    /// Whether element t is tangled (evaluated with its recovery form).
+    pub fn is_tangled_tet(&self, t: usize) -> bool {
+        self.recovery.tangled.get(t) == Some(&true)
+    }
+
     /// How many elements are tangled (evaluated with their recovery form).
     pub fn tangled_tets(&self) -> usize {
         self.recovery.count

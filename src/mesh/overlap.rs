@@ -35,6 +35,43 @@ pub fn first_vertex_inside(x: &[Vec3], tets: &[[usize; 4]]) -> Option<(usize, us
     })
 }
 
+/// The first of `points` (lowest index) inside a tet of the mesh at `x` or on its boundary (a
+/// point on a face shared by two tets is inside the body), with that tet.
+pub fn first_point_inside(
+    x: &[Vec3],
+    tets: &[[usize; 4]],
+    points: &[Vec3],
+) -> Option<(usize, usize)> {
+    if tets.is_empty() || points.is_empty() {
+        return None;
+    }
+    let grid = Grid::new(x, tets);
+    let (lo, hi) = super::bounding_box(x);
+    (0..points.len()).into_par_iter().find_map_first(|k| {
+        let p = points[k];
+        if (0..3).any(|i| p[i] < lo[i] || p[i] > hi[i]) {
+            return None;
+        }
+        grid.tets_near(&p)
+            .iter()
+            .map(|&t| t as usize)
+            .find(|&t| inside_or_on(&p, x, &tets[t]))
+            .map(|t| (k, t))
+    })
+}
+
+/// Whether p is inside the tet or on its boundary (within rounding), either orientation.
+fn inside_or_on(p: &Vec3, x: &[Vec3], tet: &[usize; 4]) -> bool {
+    let [a, b, c, d] = tet.map(|v| x[v]);
+    let volume = (b - a).cross(&(c - a)).dot(&(d - a));
+    if volume == 0.0 || !volume.is_finite() {
+        return false;
+    }
+    let margin = INSIDE_MARGIN * volume.abs();
+    let w = barycentric_volumes(p, &[a, b, c, d]);
+    w.iter().all(|&w| w * volume.signum() >= -margin)
+}
+
 /// Whether p is strictly inside the tet, of either orientation (see [`INSIDE_MARGIN`]).
 fn strictly_inside(p: &Vec3, x: &[Vec3], tet: &[usize; 4]) -> bool {
     let [a, b, c, d] = tet.map(|v| x[v]);

@@ -526,7 +526,16 @@ impl Simulation {
             .with_damping(damping)
             .with_monitors(monitors);
         match contact {
-            Some(setup) => sim.with_contact(setup),
+            Some(setup) => sim.with_contact(setup).map_err(|e| match &e {
+                Error::Parameter { name, message } => match name
+                    .strip_prefix("obstacle.")
+                    .and_then(|i| i.parse::<usize>().ok())
+                {
+                    Some(i) => scene.error_at(&key!["obstacle", i], message),
+                    None => e,
+                },
+                _ => e,
+            }),
             None => Ok(sim),
         }
     }

@@ -25,7 +25,7 @@ pub(super) struct BodyPair {
 }
 
 impl BodyPair {
-    fn is_edge_edge(&self) -> bool {
+    pub(super) fn is_edge_edge(&self) -> bool {
         self.split == 2
     }
 
@@ -394,7 +394,14 @@ impl ContactTerm {
 
     /// "the initial state intersects: body "a" (its ...) crosses body "b" (...)", or "... passes
     /// through itself" for one body.
-    fn pass_through(&self, a: usize, what_a: &str, b: usize, what_b: &str, verb: &str) -> String {
+    pub(super) fn pass_through(
+        &self,
+        a: usize,
+        what_a: &str,
+        b: usize,
+        what_b: &str,
+        verb: &str,
+    ) -> String {
         let (ba, bb) = (self.setup.body_of(a), self.setup.body_of(b));
         let (na, nb) = (self.setup.body_name(ba), self.setup.body_name(bb));
         if ba == bb {
