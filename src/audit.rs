@@ -24,6 +24,11 @@
 //! not −∇E) still shows in the remainder, and invented kinetic energy is flagged whatever the
 //! curvature. Half the estimate's size is allowed on top for its own error.
 //!
+//! **Contact** (see [`crate::contact::term::ContactAccount`]): the barrier B is a level beside
+//! E, a moving obstacle's work `B(xⁿ, oⁿ⁺¹) − B(xⁿ, oⁿ)` joins the boundary work, friction's
+//! work f_friction·Δx joins the loads', the contact force at the end counts in the reactions, and
+//! the barrier's Bregman term joins the elastic one (with its own trapezoid estimate).
+//!
 //! **Quasistatic** (no inertia, loads and gravity ramped): `ΔE = W_load + W_bound − D_num`, the
 //! works by the trapezoid rule over the load step (gravity counts as a load). D_num is then the
 //! quadrature error as well, of either sign; it is flagged only beyond 5 % of the works.
@@ -40,7 +45,8 @@ pub struct EnergyAudit {
     pub gravitational: f64,
     /// Work of the dead loads (quasistatic: and of gravity) over the frame.
     pub load_work: f64,
-    /// Work of the prescribed motions (reactions · displacement of constrained components).
+    /// Work of the prescribed motions (reactions · displacement of constrained components) and
+    /// of moving obstacles.
     pub boundary_work: f64,
     /// Energy taken by Rayleigh damping over the frame.
     pub damping_dissipation: f64,
@@ -111,6 +117,8 @@ pub struct StepRecord<'a> {
     pub elastic: f64,
     /// h (s) and the Rayleigh coefficients γ (s), α (1/s); None when quasistatic.
     pub dynamic: Option<(f64, f64, f64)>,
+    /// With contact: its forces at the end (N) and its share of the balance.
+    pub contact: Option<(&'a [Vec3], crate::contact::term::ContactAccount)>,
 }
 
 /// Relative rounding allowance on the sum of the magnitudes of all terms.
@@ -151,6 +159,8 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
         let (m, dx) = (masses[i], r.x[i] - r.xn[i]);
         let fixed = Vec3::repeat(1.0) - r.free[i];
         let gravity_force = m * r.gravity;
+        // Every force but the reaction, at the end of the step.
+        let applied = r.f_el[i] + r.f_ext[i] + r.contact.map_or(Vec3::zeros(), |(f, _)| f[i]);
         let load = r.f_ext[i] - gravity_force;
         gravitational -= gravity_force.dot(&r.x[i]);
         residual_work += r.residual[i].dot(&dx);
@@ -160,9 +170,8 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
         match r.dynamic {
             Some((h, gamma, alpha)) => {
                 let (v, vn) = (r.v[i], r.vn[i]);
-                let reaction =
-                    (m * (v - vn) / h + alpha * m * v + gamma * r.kv[i] - r.f_el[i] - r.f_ext[i])
-                        .component_mul(&fixed);
+                let reaction = (m * (v - vn) / h + alpha * m * v + gamma * r.kv[i] - applied)
+                    .component_mul(&fixed);
                 load_work += load.dot(&dx);
                 boundary_work += reaction.dot(&dx);
                 damping += h * v.dot(&(gamma * r.kv[i] + alpha * m * v));
@@ -171,7 +180,7 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
                 potential_change -= gravity_force.dot(&dx);
             }
             None => {
-                let reaction = -(r.f_el[i] + r.f_ext[i]).component_mul(&fixed);
+                let reaction = -applied.component_mul(&fixed);
                 load_work += 0.5 * (ledger.loads[i] + r.f_ext[i]).dot(&dx);
                 boundary_work += 0.5 * (ledger.reactions[i] + reaction).dot(&dx);
                 ledger.loads[i] = r.f_ext[i];
@@ -179,18 +188,19 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
             }
         }
     }
+    let contact = r.contact.map(|(_, c)| c).unwrap_or_default();
     let sums = [
-        load_work,
-        boundary_work,
+        load_work + contact.friction_work,
+        boundary_work + contact.obstacle_work,
         damping,
         kinetic_change,
         residual_work,
         gravitational,
         potential_change,
         kinetic_level,
-        curvature,
-        r.elastic,
-        ledger.elastic,
+        curvature + contact.curvature,
+        r.elastic + contact.barrier_end,
+        ledger.elastic + contact.barrier_start,
         if quasistatic { 1.0 } else { 0.0 },
     ];
     ledger.elastic = r.elastic;
@@ -200,8 +210,8 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
 }
 
 /// The sums of [`audit_sums`]: load work, boundary work, damping, kinetic change, residual
-/// work, gravitational energy, potential change, kinetic level, curvature, elastic energy at
-/// the end and at the start, and 1 for a quasistatic step (0 otherwise).
+/// work, gravitational energy, potential change, kinetic level, curvature, stored energy
+/// (elastic, and the barrier's with contact) at the end and at the start, and 1 for a quasistatic step (0 otherwise).
 pub type AuditSums = [f64; 12];
 
 /// The audit from its sums (added over the ranks under MPI; a quasistatic flag summed over

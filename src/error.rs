@@ -68,6 +68,13 @@ pub enum Error {
         /// What happened and what to try.
         message: String,
     },
+    /// A frame stopped from outside (the flag of [`crate::Simulation::set_interrupt`]); the
+    /// state is that of the last complete frame.
+    #[error("frame {frame}: interrupted; the state is that of frame {}", frame - 1)]
+    Interrupted {
+        /// The frame that was being computed.
+        frame: usize,
+    },
 }
 
 impl Error {

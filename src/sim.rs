@@ -82,6 +82,9 @@ pub struct Simulation {
     inverted_at_end: usize,
     /// Tangled elements (over every rank).
     tangled_total: usize,
+    /// Whether the last attempt at a frame ended with a moving obstacle that could not get
+    /// through the body.
+    blocked: bool,
 }
 
 impl Simulation {
@@ -153,6 +156,7 @@ impl Simulation {
             driver: None,
             inverted_at_end: usize::MAX,
             tangled_total: 0,
+            blocked: false,
         })
     }
 
@@ -333,6 +337,14 @@ impl Simulation {
         self.frame
     }
 
+    /// A flag that, once set (by a signal handler, a watchdog, another thread), stops the frame
+    /// being computed within one Newton iteration: [`Simulation::step`] then returns
+    /// [`Error::Interrupted`] with the state of the last complete frame. Serial runs only (see
+    /// [`crate::integrator::Newton::interrupted`]).
+    pub fn set_interrupt(&mut self, flag: std::sync::Arc<std::sync::atomic::AtomicBool>) {
+        self.newton.set_interrupt(Some(flag));
+    }
+
     /// True once every frame of `params.frames` is done.
     pub fn is_finished(&self) -> bool {
         self.frame >= self.params.frames
@@ -432,12 +444,23 @@ impl Simulation {
         self.saved_ledger.clone_from(&self.ledger);
         let mut attempt = 0;
         let mut stats = loop {
+            if self.newton.interrupted() {
+                self.state.clone_from(&self.saved);
+                self.ledger.clone_from(&self.saved_ledger);
+                return Err(Error::Interrupted { frame });
+            }
             let substeps = self.params.substeps << attempt;
             let retry_possible =
                 self.params.on_failure == OnFailure::Retry && attempt < self.params.max_step_cuts;
             let stop_early = retry_possible || self.params.on_failure == OnFailure::Stop;
             self.newton.set_last_resort(!retry_possible);
+            self.blocked = false;
             let (stats, finite) = self.advance(frame, substeps, stop_early);
+            if self.newton.interrupted() {
+                self.state.clone_from(&self.saved);
+                self.ledger.clone_from(&self.saved_ledger);
+                return Err(Error::Interrupted { frame });
+            }
             if stats.converged && finite {
                 break stats;
             }
@@ -462,6 +485,22 @@ impl Simulation {
             } else {
                 String::new()
             };
+            if self.blocked {
+                // The obstacle's prescribed motion cannot be followed: it would pass through
+                // the body (caught against another obstacle, or pushed faster than it can
+                // deform). Going on would put the obstacle inside the body at the next frame.
+                self.state.clone_from(&self.saved);
+                self.ledger.clone_from(&self.saved_ledger);
+                return Err(Error::Solve {
+                    frame,
+                    message: format!(
+                        "{reason}, even in {substeps} substeps: the body is caught between it and \
+                         another obstacle, or cannot get out of its way as fast as it moves, so \
+                         its prescribed motion cannot be followed. Slow the motion down (a longer \
+                         duration), stop it before it closes the gap, or use a smaller dt"
+                    ),
+                });
+            }
             if self.params.on_failure == OnFailure::Stop || !finite {
                 self.state.clone_from(&self.saved);
                 self.ledger.clone_from(&self.saved_ledger);
@@ -605,6 +644,10 @@ impl Simulation {
             let mut info = self
                 .newton
                 .solve(&ctx, &mut self.state.x, &mut self.state.v);
+            if self.newton.interrupted() {
+                stats.converged = false;
+                return (stats, true);
+            }
             // Moving obstacles go as far as they can without passing through the body, Newton
             // moves the body out of their way, and so on until they arrive.
             let mut pushes = 0;
@@ -615,16 +658,22 @@ impl Simulation {
                 pushes += 1;
                 let moved = contact.advance_obstacles(&self.state.x);
                 if pushes > MAX_OBSTACLE_PUSHES || (moved < 1e-6 && pushes > 1) {
+                    let name = contact.blocking_obstacle().unwrap_or("a moving obstacle");
                     info.converged = false;
                     info.failure = Some(format!(
-                        "a moving obstacle could not push the body out of its way within \
+                        "{name} could not push the body out of its way within \
                          {MAX_OBSTACLE_PUSHES} solves"
                     ));
+                    self.blocked = true;
                     break;
                 }
                 let mut more = self
                     .newton
                     .solve(&ctx, &mut self.state.x, &mut self.state.v);
+                if self.newton.interrupted() {
+                    stats.converged = false;
+                    return (stats, true);
+                }
                 // Each push starts near the last equilibrium; its tolerance is the step's (relative
                 // to the first solve's first residual), not a fraction of its own small start.
                 let reference = info.history.first().copied().unwrap_or(0.0);
@@ -665,6 +714,12 @@ impl Simulation {
             if !finite {
                 return (stats, false);
             }
+            let account = self
+                .newton
+                .potential_mut()
+                .contact
+                .as_mut()
+                .map(|c| c.account(&self.xn, &self.state.x));
             let record = StepRecord {
                 body: &self.body,
                 free: &self.free,
@@ -683,6 +738,13 @@ impl Simulation {
                     None => info.elastic_energy,
                 },
                 dynamic: kind_is_dynamic.then_some((h, p.rayleigh_stiffness, p.rayleigh_mass)),
+                contact: self
+                    .newton
+                    .potential()
+                    .contact
+                    .as_ref()
+                    .zip(account)
+                    .map(|(c, a)| (c.forces(), a)),
             };
             let mut sums = audit_sums(&record, &mut self.ledger);
             if let Some(ranks) = self.newton.ranks() {

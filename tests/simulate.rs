@@ -1344,6 +1344,7 @@ fn energy_audit_closes_and_flags_injection() {
                 residual: newton.residual(),
                 elastic: info.elastic_energy,
                 dynamic: Some((h, 0.0, 0.0)),
+                contact: None,
             },
             &mut ledger,
         )
@@ -1840,6 +1841,9 @@ fn moving_plate_presses_a_block_without_passing_through_it() {
         .with_contact(setup)
         .unwrap();
     let frames = sim.params.frames as f64;
+    // The plate's work is booked (the energy audit): no frame gives back more than it took, and
+    // the work is what the block stores plus what damping took.
+    let (mut work, mut damped, mut stored) = (0.0, 0.0, 0.0);
     while !sim.is_finished() {
         let stats = sim.step().unwrap();
         assert!(
@@ -1847,6 +1851,16 @@ fn moving_plate_presses_a_block_without_passing_through_it() {
             "frame {}: {:?}",
             stats.frame, stats.failure
         );
+        assert_eq!(
+            stats.energy.injected(),
+            0.0,
+            "frame {}: {:?}",
+            stats.frame,
+            stats.energy
+        );
+        work += stats.energy.boundary_work;
+        damped += stats.energy.damping_dissipation + stats.friction_dissipation;
+        stored = stats.elastic_energy + stats.contact_energy + stats.kinetic_energy;
         let plate = plate_bottom - push * stats.frame as f64 / frames;
         let (lo, hi) = sim
             .state
@@ -1862,6 +1876,10 @@ fn moving_plate_presses_a_block_without_passing_through_it() {
             stats.frame
         );
     }
+    assert!(
+        work >= stored && work <= 1.1 * (stored + damped),
+        "the plate's work {work} J against {stored} J stored and {damped} J damped"
+    );
     let top = sim
         .state
         .x

@@ -106,7 +106,7 @@ pub fn from_lib(error: tetsim::Error, origin: Origin) -> PyErr {
             message: error.to_string(),
             ..Default::default()
         },
-        E::Solve { frame, .. } => Fields {
+        E::Solve { frame, .. } | E::Interrupted { frame } => Fields {
             message: error.to_string(),
             frame: Some(*frame),
             ..Default::default()

@@ -2,7 +2,9 @@
 //! vertices, or run the rest of it into the files `tetsim run` writes.
 
 use std::path::PathBuf;
-use std::sync::{Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -28,6 +30,8 @@ pub struct Simulation {
     sim: Mutex<tetsim::Simulation>,
     scene: tetsim::Scene,
     origin: crate::errors::Origin,
+    /// Set on Ctrl-C while a step runs (see [`interruptible`]); the step then stops.
+    interrupt: Arc<AtomicBool>,
 }
 
 /// A 3-vector argument (any sequence of three floats).
@@ -42,10 +46,14 @@ impl Simulation {
         let sim = py
             .detach(|| tetsim::Simulation::from_scene(inner))
             .map_err(|e| from_lib(e, scene.origin))?;
+        let interrupt = Arc::new(AtomicBool::new(false));
+        let mut sim = sim;
+        sim.set_interrupt(Arc::clone(&interrupt));
         Ok(Simulation {
             sim: Mutex::new(sim),
             scene: scene.inner.clone(),
             origin: scene.origin,
+            interrupt,
         })
     }
 
@@ -55,12 +63,18 @@ impl Simulation {
     /// tetsim.CONTACT_COLUMNS when contact is on; min_distance is None when nothing is near).
     ///
     /// Raises tetsim.Error when the run is finished, or when the frame fails under the scene's
-    /// [solver] on_failure (the state is then left as it was before the step).
+    /// [solver] on_failure (the state is then left as it was before the step). Ctrl-C stops the
+    /// frame within a Newton iteration and raises KeyboardInterrupt, the state left as it was.
     fn step<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let origin = self.origin;
+        let flag = Arc::clone(&self.interrupt);
         let sim = self.sim_mut();
         check_not_finished(sim)?;
-        let stats = py.detach(|| sim.step()).map_err(|e| from_lib(e, origin))?;
+        let (done, signal) = interruptible(py, &flag, || sim.step());
+        if let Some(e) = signal {
+            return Err(e);
+        }
+        let stats = done.map_err(|e| from_lib(e, origin))?;
         columns(py, &stats, sim.contact_setup().is_some())
     }
 
@@ -71,8 +85,9 @@ impl Simulation {
     /// the scene's [output] deterministic). Pictures are left out: plot with matplotlib, or
     /// draw them with `tetsim render OUT_DIR`.
     ///
-    /// Returns the steps dicts of the frames run. Ctrl-C stops between frames (raising
-    /// KeyboardInterrupt) with every file written so far valid and the manifest saying so.
+    /// Returns the steps dicts of the frames run. Ctrl-C stops the frame being computed within a
+    /// Newton iteration (raising KeyboardInterrupt): the files end at the last complete frame,
+    /// every one valid, and the manifest says so.
     #[pyo3(signature = (out_dir=None, deterministic=None))]
     fn run<'py>(
         &mut self,
@@ -87,6 +102,7 @@ impl Simulation {
         scene.output.plots = false;
         let out = out_dir.unwrap_or_else(|| scene.output.dir.clone());
         let origin = self.origin;
+        let flag = Arc::clone(&self.interrupt);
         let sim = self.sim_mut();
         let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)
             .py()?
@@ -97,11 +113,15 @@ impl Simulation {
         let mut interrupted = None;
         while !sim.is_finished() {
             let (sim, recorder) = (&mut *sim, &mut recorder);
-            let done = py.detach(|| -> tetsim::Result<StepStats> {
+            let (done, signal) = interruptible(py, &flag, || -> tetsim::Result<StepStats> {
                 let stats = sim.step()?;
                 recorder.write_frame(sim, Some(&stats))?;
                 Ok(stats)
             });
+            if signal.is_some() {
+                interrupted = signal;
+                break;
+            }
             match done {
                 Ok(stats) => rows.push(columns(py, &stats, sim.contact_setup().is_some())?),
                 Err(error @ tetsim::Error::Solve { .. }) => {
@@ -287,6 +307,53 @@ impl Simulation {
     fn sim_mut(&mut self) -> &mut tetsim::Simulation {
         self.sim.get_mut().unwrap_or_else(|e| e.into_inner())
     }
+}
+
+/// Runs `work` (a step) on a helper thread while this one, waking every 50 ms to take the
+/// GIL, lets Python see its signals: a Ctrl-C sets `flag`, which ends the step within one Newton
+/// iteration, and is returned beside the work's result (for the caller to raise). A step that
+/// ends sooner is waited for no longer than it takes.
+fn interruptible<T: Send>(
+    py: Python<'_>,
+    flag: &AtomicBool,
+    work: impl FnOnce() -> T + Send,
+) -> (T, Option<PyErr>) {
+    use std::sync::Condvar;
+    flag.store(false, Ordering::SeqCst);
+    let finished = (Mutex::new(false), Condvar::new());
+    std::thread::scope(|scope| {
+        let handle = scope.spawn(|| {
+            let result = work();
+            *finished.0.lock().unwrap_or_else(|e| e.into_inner()) = true;
+            finished.1.notify_all();
+            result
+        });
+        let mut signal = None;
+        loop {
+            let done = py.detach(|| {
+                let guard = finished.0.lock().unwrap_or_else(|e| e.into_inner());
+                let (guard, _) = finished
+                    .1
+                    .wait_timeout_while(guard, Duration::from_millis(50), |done| !*done)
+                    .unwrap_or_else(|e| e.into_inner());
+                *guard
+            });
+            // A panicking step never says it finished.
+            if done || handle.is_finished() {
+                break;
+            }
+            if signal.is_none()
+                && let Err(e) = py.check_signals()
+            {
+                flag.store(true, Ordering::SeqCst);
+                signal = Some(e);
+            }
+        }
+        let done = handle
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (done, signal)
+    })
 }
 
 /// One frame's steps.csv columns as a dict.

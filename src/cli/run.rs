@@ -3,9 +3,11 @@
 //! then `complete`, `interrupted` or why it stopped); then the pictures and plots, drawn from
 //! the frames on disk.
 //!
-//! Ctrl-C and SIGTERM finish the frame being computed, write the summary and the manifest, say
-//! how to resume and exit 130 / 143; a second one stops at once (the checkpoint of the last
-//! frame still allows resuming).
+//! Ctrl-C and SIGTERM stop the frame being computed within one Newton iteration (it is not
+//! written: the files end at the last complete frame), write the summary and the manifest
+//! (`interrupted`), say how to resume and exit 130 / 143; a second one stops at once (the
+//! checkpoint of the last frame still allows resuming). Under mpirun the frame loop is not
+//! stopped from inside a step: mpirun ends the job.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -66,6 +68,7 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     }
 
     let mut sim = Simulation::from_scene(&scene)?;
+    sim.set_interrupt(Arc::clone(&stop.flag));
     #[cfg(feature = "mpi")]
     super::mpirun::attach(&mut sim, &scene)?;
     if checkpoint.is_none() {
@@ -152,6 +155,8 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
                 failure = Some(error);
                 break;
             }
+            // A signal: the frame is dropped, the run ends at the last complete one.
+            Err(tetsim::Error::Interrupted { .. }) => break,
             Err(error) => return Err(error.into()),
         };
         recorder
@@ -290,7 +295,7 @@ struct Stop {
     which: Arc<AtomicUsize>,
 }
 
-/// Ctrl-C and SIGTERM set a flag the frame loop reads after each frame; a second one exits at
+/// Ctrl-C and SIGTERM set a flag the frame loop and Newton read; a second one exits at
 /// once (130 / 143), leaving the checkpoint of the last frame written.
 fn watch_signals() -> anyhow::Result<Stop> {
     use signal_hook::consts::{SIGINT, SIGTERM};

@@ -39,6 +39,7 @@ use crate::integrator::{HessianShape, StepContext, Term};
 use crate::linear::sparse::BlockCsr;
 use crate::math::{Mat3, Vec3};
 
+mod account;
 mod bodies;
 mod candidate_cache;
 mod friction;
@@ -47,6 +48,7 @@ mod intersection;
 mod motion;
 mod stiffness;
 
+pub use account::ContactAccount;
 use friction::FrictionLag;
 use motion::time_of_impact;
 
@@ -108,6 +110,8 @@ struct Pair {
     projected: SMatrix<f64, 12, 12>,
     exact: SMatrix<f64, 12, 12>,
     distance: f64,
+    /// The obstacle of an obstacle pair (None between body primitives and for friction).
+    obstacle: Option<usize>,
 }
 
 /// An obstacle's geometry at the end of the current step.
@@ -167,6 +171,8 @@ pub struct ContactTerm {
     ramp_start: Vec<f64>,
     ramp_now: Vec<f64>,
     ramp_target: Vec<f64>,
+    /// The obstacle whose CCD bound held up the last push, if one did.
+    blocker: Option<usize>,
 }
 
 impl ContactTerm {
@@ -216,6 +222,7 @@ impl ContactTerm {
             ramp_start: Vec::new(),
             ramp_now: Vec::new(),
             ramp_target: Vec::new(),
+            blocker: None,
         };
         term.place(|_| 0.0);
         term
@@ -339,7 +346,8 @@ impl ContactTerm {
         let mut pairs: Vec<Pair> = Vec::new();
         let mut min_d = f64::INFINITY;
         let surface = &self.surface;
-        for (spec, placed) in self.setup.obstacles.iter().zip(&self.placed) {
+        for (o, (spec, placed)) in self.setup.obstacles.iter().zip(&self.placed).enumerate() {
+            let first = pairs.len();
             match (&spec.obstacle.shape, placed.plane, placed.sphere) {
                 (Shape::Plane { .. }, Some((origin, normal)), _) => {
                     let found: Vec<(f64, Option<Pair>)> = surface
@@ -451,6 +459,9 @@ impl ContactTerm {
                     }
                 }
             }
+            for p in &mut pairs[first..] {
+                p.obstacle = Some(o);
+            }
         }
         if self.body_pairs {
             let mut found = self.collect_body_pairs(x);
@@ -546,6 +557,7 @@ fn pair_of<const N: usize>(blocks: &[Option<usize>], b: &Derivatives<N>, project
         projected: SMatrix::zeros(),
         exact: SMatrix::zeros(),
         distance: 0.0,
+        obstacle: None,
     };
     let body: Vec<(usize, usize)> = blocks
         .iter()

@@ -5,6 +5,8 @@
 //! linear solver for `dx = A⁻¹·rhs` (inexact: the CG tolerance follows Newton's progress), lets
 //! the definiteness policy pick the tangent, and searches along dx ([`super::line_search`]).
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -39,6 +41,8 @@ pub struct Newton {
     /// Under MPI: the whole body's sums over the ranks (see [`crate::parallel`]); this rank's
     /// vectors then hold its own vertices and a ghost layer that no sum counts.
     ranks: Option<std::sync::Arc<dyn crate::parallel::Ranks>>,
+    /// Set from outside (a signal handler) to stop the step at the next iteration.
+    interrupt: Option<Arc<AtomicBool>>,
 }
 
 /// Merit and residual of one evaluated iterate.
@@ -68,7 +72,24 @@ impl Newton {
             last_resort: true,
             collision_limited: false,
             ranks: None,
+            interrupt: None,
         }
+    }
+
+    /// A flag that, once set, ends the step being solved at its next iteration, unconverged
+    /// (see [`Newton::interrupted`]).
+    pub fn set_interrupt(&mut self, flag: Option<Arc<AtomicBool>>) {
+        self.interrupt = flag;
+    }
+
+    /// Whether the interrupt flag is set. Never under MPI: a rank that left the step alone would
+    /// leave the others waiting in a collective (mpirun stops the job on a signal instead).
+    pub fn interrupted(&self) -> bool {
+        self.ranks.is_none()
+            && self
+                .interrupt
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::Relaxed))
     }
 
     /// The incremental potential's terms (add contact or friction terms to `extra`).
@@ -249,6 +270,10 @@ impl Newton {
             };
             if eval.residual <= floor_now || eval.residual <= params.newton_tolerance * first {
                 info.converged = true;
+                break;
+            }
+            if self.interrupted() {
+                info.failure = Some("interrupted".into());
                 break;
             }
             if info.iterations == params.newton_max_iterations {

@@ -193,3 +193,45 @@ fn a_start_inside_an_obstacle_is_refused_at_the_obstacle() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn a_block_crushed_by_a_plate_stops_the_run_naming_the_plate() {
+    // A plate driven down onto a block resting on the ground: once the block is squeezed as far
+    // as it goes, the plate's prescribed motion would take it through the block. It used to say
+    // it "could not push the body out of its way" and go on, `converged`, with vertices inside
+    // the plate; now the run stops there, naming it, every frame written still outside it.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "gravity = [0, -9.81, 0]\n\
+        [mesh]\ngenerator = { box = { min = [-0.25, 0.001, -0.25], max = [0.25, 0.201, 0.25], cells = [2, 1, 2] } }\n\
+        [material]\nyoungs_modulus = 1e5\npoisson_ratio = 0.3\n\
+        [[obstacle]]\nplane = { point = [0, 0, 0], normal = [0, 1, 0] }\n\
+        [[obstacle]]\nname = \"plate\"\nbox = { min = [-0.5, 0.21, -0.5], max = [0.5, 0.3, 0.5] }\n\
+        motion = { translate = [0, -0.25, 0] }\nduration = 0.5\n\
+        [solver]\ndt = 0.05\nframes = 12\nmax_step_cuts = 1\n";
+    let out = run(dir.path(), scene);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("plate could not push the body out of its way") && err.contains("frame "),
+        "{err}"
+    );
+    let out = dir.path().join("out");
+    let written = frames(&out);
+    assert!(written.len() > 3, "{} frames", written.len());
+    for (k, (x, _)) in written.iter().enumerate() {
+        // The plate's underside at frame k (a linear ramp over 0.5 s, dt = 0.05 s).
+        let underside = 0.21 - 0.25 * (k as f64 * 0.05 / 0.5).min(1.0);
+        for p in x {
+            assert!(
+                p.y < underside && p.y > 0.0,
+                "frame {k}: vertex at y = {} (plate at {underside})",
+                p.y
+            );
+        }
+    }
+    let manifest = std::fs::read_to_string(out.join("manifest.json")).unwrap();
+    assert!(
+        manifest.contains("\"status\": \"stopped: frame"),
+        "{manifest}"
+    );
+}

@@ -372,3 +372,59 @@ fn a_run_resumed_while_elements_are_tangled_writes_the_bytes_of_one_never_stoppe
         assert!(a == b, "{name} differs from the run never stopped");
     }
 }
+
+/// A signal stops the frame being computed, not only the frame loop: a cube dropped at
+/// 1,000 m/s spends minutes in its first frame (every retry capped), and SIGTERM ends the run
+/// inside it, keeping frame 0 and dropping frame 1.
+#[test]
+fn sigterm_inside_a_long_frame_stops_it_and_drops_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("fast.toml"),
+        r#"
+        gravity = [0.0, -9.81, 0.0]
+        [mesh]
+        generator = { box = { min = [-0.5, 0.5, -0.5], max = [0.5, 1.5, 0.5], cells = [3, 3, 3] } }
+        [material]
+        youngs_modulus = 1e5
+        poisson_ratio = 0.3
+        [initial]
+        velocity = [0.0, -1000.0, 0.0]
+        [[obstacle]]
+        plane = { point = [0, 0, 0], normal = [0, 1, 0] }
+        [solver]
+        dt = 0.01
+        frames = 5
+        "#,
+    )
+    .unwrap();
+    let run = dir.path().join("out");
+    let mut child = spawn(
+        dir.path(),
+        &["run", "fast.toml", "--no-pictures", "--out", "out"],
+    );
+    wait_for(&mut child, &run.join("checkpoint.bin"));
+    std::thread::sleep(Duration::from_millis(500));
+    signal(&child, "TERM");
+    // Frame 1 alone takes minutes (over a minute in a release build); a stop that waited for
+    // it would not come within this guard.
+    let started = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > Duration::from_secs(60) {
+            child.kill().unwrap();
+            panic!("SIGTERM did not stop the frame within 60 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(143), "{err}");
+    assert!(err.contains("interrupted (SIGTERM) after frame 0"), "{err}");
+    let m = manifest(&run);
+    assert_eq!(m["status"], "interrupted");
+    assert_eq!(m["frame"], 0);
+    assert!(run.join("frame_0000.vtu").exists());
+    assert!(!run.join("frame_0001.vtu").exists());
+    let rows = std::fs::read_to_string(run.join("steps.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 2, "header and frame 0: {rows}");
+}

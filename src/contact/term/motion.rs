@@ -131,6 +131,11 @@ impl ContactTerm {
         }
     }
 
+    /// The obstacle that held up the last push ([`ContactTerm::advance_obstacles`]), by name.
+    pub fn blocking_obstacle(&self) -> Option<&str> {
+        self.blocker.map(|o| self.setup.obstacles[o].name.as_str())
+    }
+
     /// Whether every obstacle is where the step ends.
     pub fn obstacles_arrived(&self) -> bool {
         self.ramp_now == self.ramp_target
@@ -149,7 +154,7 @@ impl ContactTerm {
         let from_ramps = self.ramp_now.clone();
         let target = self.ramp_target.clone();
         self.place_at(&target);
-        let t = self
+        let times: Vec<f64> = self
             .setup
             .obstacles
             .iter()
@@ -177,7 +182,9 @@ impl ContactTerm {
                     b,
                 )
             })
-            .fold(1.0, f64::min);
+            .collect();
+        let t = times.iter().copied().fold(1.0, f64::min);
+        self.blocker = times.iter().position(|&ti| ti == t && t < 1.0);
         if t < 1.0 {
             let ramps: Vec<f64> = from_ramps
                 .iter()
