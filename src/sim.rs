@@ -239,9 +239,33 @@ impl Simulation {
     /// Refused when the initial state passes through an obstacle (the message names it and a
     /// vertex), two bodies overlap, or a body through itself (the message names both bodies and
     /// an element of each).
-    pub fn with_contact(mut self, setup: crate::contact::ContactSetup) -> Result<Self> {
-        let mut term =
-            crate::contact::term::ContactTerm::new(setup, &self.body.mesh, self.body.masses());
+    pub fn with_contact(mut self, mut setup: crate::contact::ContactSetup) -> Result<Self> {
+        use crate::contact::term::ContactTerm;
+        let mut term = ContactTerm::new(setup.clone(), &self.body.mesh, self.body.masses());
+        // Self-contact must see the rest shape as free: parts of one body's surface closer than
+        // d̂ at rest would be pushed apart from the first step (a 0.5 m distance on a 0.2 m cube
+        // inflated it with 17 kJ). An explicit distance is refused, a default one shrunk.
+        if let Some(gap) = term.rest_self_gap() {
+            let dhat = term.activation_distance();
+            let safe = 0.5 * gap;
+            if setup.params.distance.is_some() {
+                return Err(Error::parameter(
+                    "contact.distance",
+                    format!(
+                        "{dhat} m is more than the gap between parts of a body's own surface at \
+                         rest ({gap:.3e} m): self-contact would push the rest shape apart. Use a \
+                         distance below that gap ({safe:.2e} m, half of it, leaves room), or \
+                         `self = false` in [contact]"
+                    ),
+                ));
+            }
+            log::warn!(
+                "the default contact distance {dhat:.3e} m is more than the gap between parts of \
+                 a body's own surface at rest ({gap:.3e} m); using {safe:.3e} m"
+            );
+            setup.params.distance = Some(safe);
+            term = ContactTerm::new(setup, &self.body.mesh, self.body.masses());
+        }
         term.match_material_stiffness(
             self.body.softest_youngs_modulus(),
             self.body.mesh.mean_edge_length(),

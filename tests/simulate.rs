@@ -1964,7 +1964,10 @@ fn block_resting_on_the_ground_squashes_by_rho_g_l2_over_2e() {
 
 /// Contact I: a block dropped off-centre into the sample bowl (an OBJ surface) stays inside it
 /// in every frame and comes to rest at the bottom: from 1.2 m off the axis to within 0.3 m of it
-/// (where μ = 0.05 and its four-cornered footing can hold it), at rest.
+/// (where μ = 0.05 and its four-cornered footing can hold it), at rest. It slides to and fro
+/// about ten times before it sticks, and when it sticks depends on every solve along the way
+/// (frame 200 with one linear solver's path, 235 with another, both within the tolerances), so
+/// it is given 260 frames.
 #[test]
 fn block_dropped_into_a_bowl_stays_inside_and_rests_at_the_bottom() {
     let toml = r#"
@@ -1979,7 +1982,7 @@ fn block_dropped_into_a_bowl_stays_inside_and_rests_at_the_bottom() {
         friction = 0.05
         [solver]
         dt = 0.02
-        frames = 200
+        frames = 260
         rayleigh_mass = 1.0
         newton_max_iterations = 50
         "#;

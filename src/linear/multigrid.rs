@@ -128,7 +128,12 @@ impl LinearSolver for Multigrid {
         // the projected A assembled for it, then the exact A again, where the system asks for it
         // ([`System::refresh_while_exact`]); else the refresh waits for a projected A.
         let exact = !system.is_projected();
-        let refresh_exact = exact && stale && system.refresh_while_exact();
+        // Contact's barrier blocks change by orders of magnitude from one Newton iterate to the
+        // next as gaps open and close: D⁻¹ and the Chebyshev interval of the last refresh no
+        // longer bound the current A, and the V-cycle stops being a good (or even positive
+        // definite) preconditioner.
+        let contact = system.needs_f64();
+        let refresh_exact = exact && ((stale && system.refresh_while_exact()) || contact);
         let action = match &self.amg {
             None => Some(Action::Build),
             // A new pattern (contact blocks came or went) has new aggregates.
@@ -137,12 +142,20 @@ impl LinearSolver for Multigrid {
             // that it aged: a body started collapsed onto a line builds its aggregates from
             // that degenerate A, and the growth rule never fires when the first solve is
             // already capped (a 3,560-tet ball: 2,000 CG iterations at every Newton iterate,
-            // minutes per frame). Aggregates and numbers are rebuilt from the current A.
-            Some(_) if self.last_capped && !exact => Some(Action::Rebuild),
+            // minutes per frame). Aggregates and numbers are rebuilt from the current A, or
+            // from its projection while A is exact: waiting for a projected A let a stack of
+            // three bodies in contact spend eight exact Newton iterates in a row at the cap.
+            Some(_) if self.last_capped => Some(Action::Rebuild),
             Some(_) if stale && (!exact || refresh_exact) => Some(Action::Refresh),
+            Some(_) if contact => Some(Action::Refresh),
             Some(_) => None,
         };
-        let from_projected = refresh_exact && action == Some(Action::Refresh);
+        let from_projected = exact
+            && match action {
+                Some(Action::Refresh) => refresh_exact,
+                Some(Action::Rebuild) => true,
+                _ => false,
+            };
         if from_projected {
             self.matrix.assemble_projected(system, free);
         }

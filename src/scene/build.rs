@@ -532,6 +532,9 @@ impl Simulation {
                     .and_then(|i| i.parse::<usize>().ok())
                 {
                     Some(i) => scene.error_at(&key!["obstacle", i], message),
+                    None if name == "contact.distance" => {
+                        scene.error_at(&key!["contact", "distance"], message)
+                    }
                     None => e,
                 },
                 _ => e,

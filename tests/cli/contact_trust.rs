@@ -235,3 +235,27 @@ fn a_block_crushed_by_a_plate_stops_the_run_naming_the_plate() {
         "{manifest}"
     );
 }
+
+#[test]
+fn a_contact_distance_wider_than_the_body_s_own_gaps_is_refused() {
+    // 0.5 m on a 0.2 m cube of 3 × 3 × 3 cells: parts of its surface 0.038 m apart at rest were
+    // pushed apart by self-contact, inflating the resting cube with 17 kJ from nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let cube = "gravity = [0, -9.81, 0]\n\
+        [mesh]\ngenerator = { box = { min = [-0.1, 0, -0.1], max = [0.1, 0.2, 0.1], cells = [3, 3, 3] } }\n\
+        [[obstacle]]\nplane = { point = [0, -0.001, 0], normal = [0, 1, 0] }\n\
+        [solver]\nframes = 1\n";
+    let out = run(dir.path(), &format!("{cube}[contact]\ndistance = 0.5\n"));
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.starts_with("error: s.toml:9:"), "{err}");
+    assert!(
+        err.contains("contact.distance") && err.contains("3.849e-2 m"),
+        "{err}"
+    );
+    // Below the gap, or without self-contact, it runs.
+    for ok in ["distance = 0.03\n", "distance = 0.5\nself = false\n"] {
+        let out = run(dir.path(), &format!("{cube}[contact]\n{ok}"));
+        assert!(out.status.success(), "{ok}: {}", stderr(&out));
+    }
+}

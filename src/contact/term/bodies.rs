@@ -97,6 +97,24 @@ impl ContactTerm {
         )
     }
 
+    /// The smallest gap (m) between two primitives of one body's surface at rest (not sharing a
+    /// vertex, as self-contact sees them) when it is below the contact distance d̂: the rest
+    /// shape then already holds barrier energy and self-contact pushes it apart from the first
+    /// step. None without self-contact or when every such gap is at least d̂.
+    pub fn rest_self_gap(&self) -> Option<f64> {
+        if !self.setup.params.self_contact {
+            return None;
+        }
+        let rest = &self.rest;
+        self.search_body_candidates(rest, rest, self.dhat.sqrt())
+            .par_iter()
+            .filter(|p| self.setup.body_of(p.vertices[0]) == self.setup.body_of(p.vertices[3]))
+            .map(|p| p.distance(rest))
+            .filter(|&d| d < self.dhat)
+            .reduce_with(f64::min)
+            .map(f64::sqrt)
+    }
+
     /// [`Self::body_candidates`] by a search of the surface's own tree.
     pub(super) fn search_body_candidates(&self, x0: &[Vec3], x1: &[Vec3], r: f64) -> Vec<BodyPair> {
         if !self.body_pairs {
