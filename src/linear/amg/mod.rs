@@ -252,6 +252,23 @@ impl Amg {
         Some(amg)
     }
 
+    /// How far the diagonal blocks of `a` have grown past those the finest level's D⁻¹ came
+    /// from: the largest ‖D⁻¹ᵢ·Aᵢᵢ‖_F/√3 over the vertices (1 where a block is unchanged). Past
+    /// 2 or so the smoother's spectral bound no longer holds where they grew (contact barriers
+    /// stiffening). None when the level keeps no D⁻¹ of this size.
+    pub fn diagonal_growth(&self, a: &BlockCsr) -> Option<f64> {
+        use rayon::prelude::*;
+        let dinv = &self.fine.dinv;
+        if dinv.len() != a.rows() {
+            return None;
+        }
+        let growth = (0..a.rows())
+            .into_par_iter()
+            .map(|i| (dinv[i] * a.diagonal(i)).norm())
+            .reduce(|| 0.0, f64::max);
+        Some(growth / 3f64.sqrt())
+    }
+
     /// What [`Amg::restored`] needs beside the aggregates; None for a hierarchy that keeps its
     /// finest A (one level, or made by [`Amg::new`]: [`Amg::fine_values`] then).
     pub fn fine_numbers(&self) -> Option<FineNumbers> {

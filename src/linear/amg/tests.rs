@@ -321,3 +321,65 @@ fn symmetric_case(precision: Precision) {
         assert!(dot(&u, &mu) > 0.0 && dot(&v, &mv) > 0.0);
     }
 }
+
+/// Contact stiffens a few diagonal blocks by orders of magnitude between Newton iterates: the
+/// growth the multigrid solver watches sees it, a stale hierarchy then preconditions badly, and
+/// a refresh brings the growth back to 1 and the iterations back down.
+#[test]
+fn diagonal_growth_sees_stiffened_blocks_and_a_refresh_clears_it() {
+    let s = beam(3, 0.3);
+    let mut amg = Amg::new(&s.a, &s.positions, &s.free, &AmgParams::default());
+    let g = amg
+        .diagonal_growth(&s.a)
+        .expect("a multilevel hierarchy keeps D⁻¹");
+    assert!((g - 1.0).abs() < 1e-9, "{g}");
+    // A barrier block κ·n·nᵀ, 1000 times the elastic diagonal, on a few free vertices.
+    let mut stiff = s.a.clone();
+    let touching: Vec<usize> = (0..s.a.rows())
+        .filter(|&i| s.free[i] == Vec3::repeat(1.0))
+        .step_by(7)
+        .take(4)
+        .collect();
+    for &i in &touching {
+        let k = stiff.pattern.find(i, i).unwrap();
+        let kappa = 1e3 * s.a.diagonal(i).norm();
+        stiff
+            .blocks_mut()
+            .add(k, &(kappa * Vec3::y() * Vec3::y().transpose()));
+    }
+    let g = amg.diagonal_growth(&stiff).unwrap();
+    assert!(g > 100.0, "{g}");
+    let stiff_system = System {
+        a: stiff.clone(),
+        positions: s.positions.clone(),
+        free: s.free.clone(),
+        rhs: s.rhs.clone(),
+    };
+    let mut stale = Amg::new(&s.a, &s.positions, &s.free, &AmgParams::default());
+    let stale_iterations = {
+        let params = CgParams {
+            tolerance: 1e-6,
+            max_iterations: 5000,
+        };
+        let n = stiff.rows();
+        let mut x = vec![Vec3::zeros(); n];
+        let info = conjugate_gradient(
+            &mut Assembled(&stiff),
+            &mut stale,
+            &stiff_system.rhs,
+            &mut x,
+            &stiff_system.free,
+            &params,
+            &mut CgWorkspace::new(n),
+        );
+        super::super::info_of(&info).iterations
+    };
+    amg.refresh(&stiff);
+    let g = amg.diagonal_growth(&stiff).unwrap();
+    assert!((g - 1.0).abs() < 1e-9, "{g}");
+    let (_, fresh_iterations) = solve(&stiff_system, &mut amg, 1e-6);
+    assert!(
+        3 * fresh_iterations <= 2 * stale_iterations,
+        "refreshed {fresh_iterations} against stale {stale_iterations}"
+    );
+}
