@@ -115,7 +115,8 @@ class Simulation:
         near; then RECOVERY_COLUMNS).
 
         Raises Error when the run is finished, or when the frame fails under [solver]
-        on_failure (the state is then left as it was before the step).
+        on_failure (the state is then left as it was before the step). Ctrl-C stops the frame
+        within a Newton iteration and raises KeyboardInterrupt, the state left as it was.
         """
 
     def run(
@@ -126,8 +127,9 @@ class Simulation:
         frame first), frames.pvd, surface_NNNN.obj, steps.csv, timings.csv, manifest.json.
         deterministic=True writes steps.csv's wall_seconds as 0 (like --deterministic).
 
-        Returns the step() dicts of the frames run. Ctrl-C stops between frames (raising
-        KeyboardInterrupt), every file written so far valid and the manifest saying so.
+        Returns the step() dicts of the frames run. Ctrl-C stops the frame being computed within
+        a Newton iteration (raising KeyboardInterrupt): the files end at the last complete frame,
+        every one valid, and the manifest says so.
         """
 
     @property
