@@ -248,6 +248,17 @@ impl Simulation {
         if let Some(gap) = term.rest_self_gap() {
             let dhat = term.activation_distance();
             let safe = 0.5 * gap;
+            if safe <= 1e-12 * term.bounding_box_diagonal() {
+                // No distance fits: the surface touches itself at rest.
+                return Err(Error::parameter(
+                    "contact",
+                    format!(
+                        "parts of a body's own surface not sharing a vertex touch at rest (gap \
+                         {gap:.3e} m): self-contact cannot start there. Repair the mesh, or set \
+                         `self = false` in [contact]"
+                    ),
+                ));
+            }
             if setup.params.distance.is_some() {
                 return Err(Error::parameter(
                     "contact.distance",

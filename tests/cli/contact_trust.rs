@@ -259,3 +259,29 @@ fn a_contact_distance_wider_than_the_body_s_own_gaps_is_refused() {
         assert!(out.status.success(), "{ok}: {}", stderr(&out));
     }
 }
+
+#[test]
+fn a_surface_touching_itself_at_rest_is_refused_not_given_a_zero_distance() {
+    // A tet whose vertex lies on another tet's face (a Medit file, as a mesher could write it):
+    // no contact distance fits, and shrinking the default to half the gap would make it 0.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("touch.mesh"),
+        "MeshVersionFormatted 2\nDimension 3\nVertices\n8\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n\
+         0.3333333333333333 0.3333333333333333 0.3333333333333334 0\n1 1 1 0\n1.5 1 1 0\n\
+         1 1.5 1 0\nTetrahedra\n2\n1 2 3 4 1\n5 6 7 8 1\nEnd\n",
+    )
+    .unwrap();
+    let scene = "[mesh]\nfile = \"touch.mesh\"\n\
+        [[obstacle]]\nplane = { point = [0, -0.01, 0], normal = [0, 1, 0] }\n\
+        [solver]\nframes = 1\n";
+    let out = run(dir.path(), scene);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("touch at rest") && !err.contains("panicked"),
+        "{err}"
+    );
+    let out = run(dir.path(), &format!("{scene}[contact]\nself = false\n"));
+    assert!(out.status.success(), "{}", stderr(&out));
+}
