@@ -270,12 +270,7 @@ impl<M: Isotropic> Isotropic for Clamped<M> {
         if s.min() >= self.clamp.threshold {
             return self.model.pair_eigenvalues(s, p, h, i, j);
         }
-        let d = self.below(s);
-        let n = PAIRS
-            .iter()
-            .position(|&p| p == (i.min(j), i.max(j)))
-            .expect("a pair of distinct indices");
-        (d.pair_sym[n], d.pair_skew[n])
+        self.below(s).pair(i, j)
     }
 
     fn derivatives(&self, s: &Vec3) -> Derivatives {

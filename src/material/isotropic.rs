@@ -83,6 +83,53 @@ pub struct Derivatives {
     pub pair_skew: Vec3,
 }
 
+impl Derivatives {
+    /// `(pair_sym, pair_skew)` of the pair (i, j), i ≠ j, in either order.
+    pub fn pair(&self, i: usize, j: usize) -> (f64, f64) {
+        let n = PAIRS
+            .iter()
+            .position(|&p| p == (i.min(j), i.max(j)))
+            .expect("a pair of distinct indices");
+        (self.pair_sym[n], self.pair_skew[n])
+    }
+}
+
+/// [`Isotropic`] for a model whose `all(σ) -> Derivatives` computes everything at once: each
+/// method reads its part of that one evaluation.
+macro_rules! isotropic_from_all {
+    ($model:ty) => {
+        impl $crate::material::isotropic::Isotropic for $model {
+            fn psi(&self, s: &Vec3) -> f64 {
+                self.all(s).psi
+            }
+
+            fn dpsi(&self, s: &Vec3) -> Vec3 {
+                self.all(s).p
+            }
+
+            fn d2psi(&self, s: &Vec3) -> Mat3 {
+                self.all(s).h
+            }
+
+            fn pair_eigenvalues(
+                &self,
+                s: &Vec3,
+                _: &Vec3,
+                _: &Mat3,
+                i: usize,
+                j: usize,
+            ) -> (f64, f64) {
+                self.all(s).pair(i, j)
+            }
+
+            fn derivatives(&self, s: &Vec3) -> $crate::material::isotropic::Derivatives {
+                self.all(s)
+            }
+        }
+    };
+}
+pub(crate) use isotropic_from_all;
+
 /// Relative gap below which `(pᵢ − pⱼ)/(σᵢ − σⱼ)` is replaced by its limit `Hᵢᵢ − Hᵢⱼ`. At 1e-6
 /// the two choices differ by O(1e-6) relative, about the cancellation error of the quotient.
 const REPEATED_GAP: f64 = 1e-6;

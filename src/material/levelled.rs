@@ -20,7 +20,7 @@
 //! those folds.
 
 use super::Lame;
-use super::isotropic::{Derivatives, Isotropic, PAIRS, guarded_quotient};
+use super::isotropic::{Derivatives, PAIRS, guarded_quotient, isotropic_from_all};
 use crate::math::{Mat3, Vec3};
 
 /// Relative gap below which divided differences of ℓ' use the midpoint derivative (error
@@ -144,29 +144,4 @@ impl LevelledNeoHookean {
     }
 }
 
-impl Isotropic for LevelledNeoHookean {
-    fn psi(&self, s: &Vec3) -> f64 {
-        self.all(s).psi
-    }
-
-    fn dpsi(&self, s: &Vec3) -> Vec3 {
-        self.all(s).p
-    }
-
-    fn d2psi(&self, s: &Vec3) -> Mat3 {
-        self.all(s).h
-    }
-
-    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
-        let d = self.all(s);
-        let n = PAIRS
-            .iter()
-            .position(|&p| p == (i.min(j), i.max(j)))
-            .expect("a pair of distinct indices");
-        (d.pair_sym[n], d.pair_skew[n])
-    }
-
-    fn derivatives(&self, s: &Vec3) -> Derivatives {
-        self.all(s)
-    }
-}
+isotropic_from_all!(LevelledNeoHookean);

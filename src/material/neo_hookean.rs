@@ -21,7 +21,7 @@
 //! the extended log.
 
 use super::clamp::{Clamped, StretchClamp};
-use super::isotropic::{Derivatives, ExtendedLog, Isotropic, PAIRS};
+use super::isotropic::{Derivatives, ExtendedLog, PAIRS, isotropic_from_all};
 use super::{DEFAULT_INVERSION_THRESHOLD, Lame};
 use crate::math::{Mat3, Vec3};
 
@@ -108,29 +108,4 @@ impl NeoHookean {
     }
 }
 
-impl Isotropic for NeoHookean {
-    fn psi(&self, s: &Vec3) -> f64 {
-        self.all(s).psi
-    }
-
-    fn dpsi(&self, s: &Vec3) -> Vec3 {
-        self.all(s).p
-    }
-
-    fn d2psi(&self, s: &Vec3) -> Mat3 {
-        self.all(s).h
-    }
-
-    fn pair_eigenvalues(&self, s: &Vec3, _: &Vec3, _: &Mat3, i: usize, j: usize) -> (f64, f64) {
-        let d = self.all(s);
-        let n = PAIRS
-            .iter()
-            .position(|&p| p == (i.min(j), i.max(j)))
-            .expect("a pair of distinct indices");
-        (d.pair_sym[n], d.pair_skew[n])
-    }
-
-    fn derivatives(&self, s: &Vec3) -> Derivatives {
-        self.all(s)
-    }
-}
+isotropic_from_all!(NeoHookean);

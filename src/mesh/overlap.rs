@@ -62,27 +62,25 @@ pub fn first_point_inside(
 
 /// Whether p is inside the tet or on its boundary (within rounding), either orientation.
 fn inside_or_on(p: &Vec3, x: &[Vec3], tet: &[usize; 4]) -> bool {
-    let [a, b, c, d] = tet.map(|v| x[v]);
-    let volume = (b - a).cross(&(c - a)).dot(&(d - a));
-    if volume == 0.0 || !volume.is_finite() {
-        return false;
-    }
-    let margin = INSIDE_MARGIN * volume.abs();
-    let w = barycentric_volumes(p, &[a, b, c, d]);
-    w.iter().all(|&w| w * volume.signum() >= -margin)
+    depth_inside(p, x, tet).is_some_and(|d| d >= -INSIDE_MARGIN)
 }
 
 /// Whether p is strictly inside the tet, of either orientation (see [`INSIDE_MARGIN`]).
 fn strictly_inside(p: &Vec3, x: &[Vec3], tet: &[usize; 4]) -> bool {
+    depth_inside(p, x, tet).is_some_and(|d| d > INSIDE_MARGIN)
+}
+
+/// The smallest barycentric coordinate of p in the tet (negative outside), whatever the tet's
+/// orientation; None for a flat or non-finite tet.
+fn depth_inside(p: &Vec3, x: &[Vec3], tet: &[usize; 4]) -> Option<f64> {
     let [a, b, c, d] = tet.map(|v| x[v]);
     let volume = (b - a).cross(&(c - a)).dot(&(d - a));
     if volume == 0.0 || !volume.is_finite() {
-        return false;
+        return None;
     }
     // Each signed volume below has the tet's own sign when p is inside.
-    let margin = INSIDE_MARGIN * volume.abs();
     let w = barycentric_volumes(p, &[a, b, c, d]);
-    w.iter().all(|&w| w * volume.signum() > margin)
+    Some(w.iter().map(|&w| w / volume).fold(f64::INFINITY, f64::min))
 }
 
 /// Six times the signed volumes of the tets with p in place of each vertex in turn.
