@@ -14,14 +14,16 @@
 //! ```
 
 mod checkpoint;
+mod contact;
 mod control;
+mod energy;
 mod monitoring;
 mod recovery;
 mod validity;
 
 use std::time::Instant;
 
-use crate::audit::{Ledger, StepRecord, audit_finish, audit_sums};
+use crate::audit::Ledger;
 use crate::boundary::{Boundary, Clock};
 use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
@@ -30,6 +32,7 @@ use crate::integrator::{
 };
 use crate::math::Vec3;
 use crate::mesh::ordering::Renumbering;
+use energy::initial_ledger;
 
 /// Positions (m), velocities (m/s) and time (s; the load factor when quasistatic).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -233,101 +236,6 @@ impl Simulation {
     /// The bodies in the mesh, in input order (one, "body0", unless named).
     pub fn bodies(&self) -> &crate::mesh::bodies::Bodies {
         &self.bodies
-    }
-
-    /// Turn contact on: rigid obstacles, the bodies and the `[contact]` settings (SPEC §11).
-    /// Refused when the initial state passes through an obstacle (the message names it and a
-    /// vertex), two bodies overlap, or a body through itself (the message names both bodies and
-    /// an element of each).
-    pub fn with_contact(mut self, mut setup: crate::contact::ContactSetup) -> Result<Self> {
-        use crate::contact::term::ContactTerm;
-        let mut term = ContactTerm::new(setup.clone(), &self.body.mesh, self.body.masses());
-        // Self-contact must see the rest shape as free: parts of one body's surface closer than
-        // d̂ at rest would be pushed apart from the first step (a 0.5 m distance on a 0.2 m cube
-        // inflated it with 17 kJ). An explicit distance is refused, a default one shrunk.
-        if let Some(gap) = term.rest_self_gap() {
-            let dhat = term.activation_distance();
-            let safe = 0.5 * gap;
-            if safe <= 1e-12 * term.bounding_box_diagonal() {
-                // No distance fits: the surface touches itself at rest.
-                return Err(Error::parameter(
-                    "contact",
-                    format!(
-                        "parts of a body's own surface not sharing a vertex touch at rest (gap \
-                         {gap:.3e} m): self-contact cannot start there. Repair the mesh, or set \
-                         `self = false` in [contact]"
-                    ),
-                ));
-            }
-            if setup.params.distance.is_some() {
-                return Err(Error::parameter(
-                    "contact.distance",
-                    format!(
-                        "{dhat} m is more than the gap between parts of a body's own surface at \
-                         rest ({gap:.3e} m): self-contact would push the rest shape apart. Use a \
-                         distance below that gap ({safe:.2e} m, half of it, leaves room), or \
-                         `self = false` in [contact]"
-                    ),
-                ));
-            }
-            log::warn!(
-                "the default contact distance {dhat:.3e} m is more than the gap between parts of \
-                 a body's own surface at rest ({gap:.3e} m); using {safe:.3e} m"
-            );
-            setup.params.distance = Some(safe);
-            term = ContactTerm::new(setup, &self.body.mesh, self.body.masses());
-        }
-        term.match_material_stiffness(
-            self.body.softest_youngs_modulus(),
-            self.body.mesh.mean_edge_length(),
-        );
-        // Where the obstacles stand at the start: a motion with duration 0 has already moved.
-        let start = self.clock_at(self.state.t);
-        term.place_obstacles(|duration| start.ramp(duration));
-        let inside = (0..setup_obstacles(&term)).find_map(|o| {
-            crate::mesh::overlap::first_point_inside(
-                &self.state.x,
-                &self.body.mesh.tets,
-                &term.obstacle_points(o),
-            )
-            .map(|(_, t)| {
-                let name = &term.setup().obstacles[o].name;
-                (
-                    Some(o),
-                    format!(
-                        "the initial state passes through {name}: it lies inside element {} of \
-                         the body",
-                        self.body.mesh.tet_id(t)
-                    ),
-                )
-            })
-        });
-        if let Some((obstacle, message)) =
-            inside.or_else(|| term.located_intersection(&self.state.x))
-        {
-            // "invalid contact: the initial state …": obstacles and bodies alike; an obstacle's
-            // index rides in the key, for the scene to point at its `[[obstacle]]` table.
-            let key = obstacle.map_or("contact".to_string(), |o| format!("obstacle.{o}"));
-            return Err(Error::parameter(key, message));
-        }
-        self.newton.potential_mut().contact = Some(term);
-        Ok(self)
-    }
-
-    /// The contact term, when contact is on: its pairs, gaps, energy, forces and costs.
-    pub fn contact(&self) -> Option<&crate::contact::term::ContactTerm> {
-        self.newton.potential().contact.as_ref()
-    }
-
-    /// The contact setup, when contact is on.
-    pub fn contact_setup(&self) -> Option<&crate::contact::ContactSetup> {
-        self.contact().map(|c| c.setup())
-    }
-
-    /// Contact forces on the vertices at the last evaluation (the end of the last frame), N
-    /// (empty without contact).
-    pub fn contact_forces(&self) -> &[Vec3] {
-        self.contact().map_or(&[], |c| c.forces())
     }
 
     /// The ramp factor s ∈ [0, 1] of a motion with `duration` (None: the whole run) at the
@@ -749,124 +657,17 @@ impl Simulation {
             if !finite {
                 return (stats, false);
             }
-            let account = self
-                .newton
-                .potential_mut()
-                .contact
-                .as_mut()
-                .map(|c| c.account(&self.xn, &self.state.x));
-            let record = StepRecord {
-                body: &self.body,
-                free: &self.free,
-                gravity: self.boundary.gravity * clock.gravity_scale(),
-                f_ext: &self.f_ext,
-                xn: &self.xn,
-                vn: &self.vn,
-                x: &self.state.x,
-                v: &self.state.v,
-                f_el: self.newton.elastic_forces(),
-                kv: self.newton.stiffness_velocity(),
-                residual: self.newton.residual(),
-                // Under MPI each rank's own share, summed over the ranks with the audit's sums.
-                elastic: match self.newton.ranks() {
-                    Some(_) => self.newton.potential().elasticity.energy(),
-                    None => info.elastic_energy,
-                },
-                dynamic: kind_is_dynamic.then_some((h, p.rayleigh_stiffness, p.rayleigh_mass)),
-                contact: self
-                    .newton
-                    .potential()
-                    .contact
-                    .as_ref()
-                    .zip(account)
-                    .map(|(c, a)| (c.forces(), a)),
-            };
-            // The elastic forces' work over the step at its start and end (what the audit's
-            // trapezoid estimate of the Bregman term is made of), for a refinement below.
-            let ends_work = (self.newton.ranks().is_none()
-                && self.ledger.forces.len() == self.xn.len())
-            .then(|| {
-                let work = |f: &[Vec3]| -> f64 {
-                    f.iter()
-                        .zip(self.state.x.iter().zip(&self.xn))
-                        .map(|(f, (x, xn))| f.dot(&(x - xn)))
-                        .sum()
-                };
-                (
-                    work(&self.ledger.forces),
-                    work(self.newton.elastic_forces()),
-                )
-            });
-            let mut sums = audit_sums(&record, &mut self.ledger);
-            if let Some(ranks) = self.newton.ranks() {
-                ranks.sum(&mut sums);
-            }
-            let mut audit = audit_finish(&sums);
-            if audit.injected() > 0.0
-                && let Some((start, end)) = ends_work
-            {
-                // A flagged step is audited again with the Bregman term by Simpson's rule (the
-                // elastic forces at the step's midpoint too): the trapezoid's own error is third
-                // order, and a bar twisted past buckling outgrew its allowance.
-                let mid: Vec<Vec3> = self
-                    .xn
-                    .iter()
-                    .zip(&self.state.x)
-                    .map(|(a, b)| 0.5 * (a + b))
-                    .collect();
-                let mut f_mid = vec![Vec3::zeros(); mid.len()];
-                self.body.add_forces(&mid, &mut f_mid);
-                let middle: f64 = f_mid
-                    .iter()
-                    .zip(self.state.x.iter().zip(&self.xn))
-                    .map(|(f, (x, xn))| f.dot(&(x - xn)))
-                    .sum();
-                audit = crate::audit::audit_refined(&sums, start, middle, end);
-            }
-            stats.energy.add(&audit);
+            let elastic = info.elastic_energy;
+            let gravity = self.boundary.gravity * clock.gravity_scale();
+            let dynamic = kind_is_dynamic.then_some((h, p.rayleigh_stiffness, p.rayleigh_mass));
+            stats
+                .energy
+                .add(&self.audit_substep(elastic, gravity, dynamic));
             if !info.converged && stop_early {
                 break;
             }
         }
         (stats, true)
-    }
-}
-
-/// How many obstacles a contact term has.
-fn setup_obstacles(term: &crate::contact::term::ContactTerm) -> usize {
-    term.setup().obstacles.len()
-}
-
-/// The audit's ledger at the initial state: its elastic energy and, for the quasistatic trapezoid
-/// rule, the loads (zero at load factor 0) and reactions there.
-/// Under MPI (`ranks`) the forces are completed over the ranks and the energy is this rank's
-/// share (the audit sums it).
-fn initial_ledger(
-    body: &ElasticBody,
-    boundary: &Boundary,
-    free: &[Vec3],
-    x: &[Vec3],
-    ranks: Option<&dyn crate::parallel::Ranks>,
-) -> Ledger {
-    let n = body.vertex_count();
-    let mut loads = vec![Vec3::zeros(); n];
-    boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
-    let mut forces = vec![Vec3::zeros(); n];
-    body.add_forces(x, &mut forces);
-    if let Some(ranks) = ranks {
-        crate::parallel::complete_vectors(ranks, &mut forces);
-    }
-    let reactions = forces
-        .iter()
-        .zip(&loads)
-        .zip(free)
-        .map(|((f, l), m)| -(f + l).component_mul(&(Vec3::repeat(1.0) - m)))
-        .collect();
-    Ledger {
-        elastic: body.energy(x),
-        loads,
-        reactions,
-        forces,
     }
 }
 
