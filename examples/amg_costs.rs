@@ -1,4 +1,4 @@
-//! Costs of the AMG preconditioner on the issue-8 cantilever beam (4n×n×n cubes): setup,
+//! Costs of the AMG preconditioner on the benchmark cantilever beam (4n×n×n cubes): setup,
 //! refresh, one V-cycle, one assembled product, and PCG iterations against Jacobi.
 //!
 //! `cargo run --release --example amg_costs -- 12` (n = 12), optionally followed by AMG settings

@@ -1,4 +1,4 @@
-//! Costs of one Newton iterate's evaluation on the issue-8 cantilever beam (4n×n×n cubes):
+//! Costs of one Newton iterate's evaluation on the benchmark cantilever beam (4n×n×n cubes):
 //! the damped forces (one SVD, stress, K_d·v) and Newton's shifted tangents (one SVD, the
 //! projected and the exact pieces), each alone, in ns per tet (medians of 9).
 //!

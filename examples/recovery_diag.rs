@@ -1,4 +1,4 @@
-//! Diagnosis of inversion recovery from tangled starts (issue 6): one run frame by frame, or a
+//! Diagnosis of inversion recovery from tangled starts: one run frame by frame, or a
 //! sweep over starts, seeds and meshes that counts the runs left folded.
 //!
 //! One run, printing energy, inverted tets, smallest stretch and distance from rest:

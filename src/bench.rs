@@ -1,4 +1,4 @@
-//! `tetsim bench`: the issue-8 cantilever workload at several mesh sizes, with the figures that
+//! `tetsim bench`: the benchmark cantilever workload at several mesh sizes, with the figures that
 //! say where time goes and how close the linear solve runs to the memory-bandwidth roof.
 //!
 //! Workload (fixed so figures compare across versions and with other codes): beam
@@ -45,7 +45,7 @@ pub struct BenchParams {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Workload {
-    /// The issue-8 cantilever, 4n×n×n cubes (24n³ tets); `--contact` adds a ground plane.
+    /// The benchmark cantilever, 4n×n×n cubes (24n³ tets); `--contact` adds a ground plane.
     #[default]
     Beam,
     /// Three soft blocks of n×n/2×n cubes stacked on the ground (9n³ tets; body–body contact):

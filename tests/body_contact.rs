@@ -80,7 +80,7 @@ fn two_cubes() -> (TetMesh, Vec<u32>) {
 
 /// The cubes meet at 9 cm/s after 0.45 s. (At 0.45 m/s and more Newton does not converge at
 /// the impact yet: a corner's gap falls to ~1e-7 m with d̂ = 1e-3 m and the relative residual
-/// stalls above 1e-6; see notes/issue-16-contact-term.md.)
+/// stalls above 1e-6.)
 ///
 /// Momentum is kept to rounding with an f64 matrix (the Newton steps solve with a matrix whose
 /// rows sum to the mass term exactly); with the default f32 matrix of a dynamic step, to the

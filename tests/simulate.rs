@@ -2014,7 +2014,7 @@ fn block_dropped_into_a_bowl_stays_inside_and_rests_at_the_bottom() {
     );
 }
 
-/// Issue 19: a run stopped after a frame and taken on from its checkpoint's snapshot (a new
+/// Stop and resume: a run stopped after a frame and taken on from its checkpoint's snapshot (a new
 /// Simulation made from the same scene, through the file format) computes the bits of a run
 /// never stopped, every Newton and CG iteration included: the multigrid hierarchy is rebuilt
 /// from its stored matrices, contact's κ and gap history carry over, a quasistatic run keeps its

@@ -1,4 +1,4 @@
-//! The bench beam of the cost examples: the issue-8 cantilever (4n×n×n Kuhn cubes, Neo-Hookean
+//! The bench beam of the cost examples: the benchmark cantilever (4n×n×n Kuhn cubes, Neo-Hookean
 //! E = 1e6 Pa, ν = 0.3, 1000 kg/m³) and a bent state like its sag.
 
 use tetsim::Vec3;

@@ -1,4 +1,4 @@
-//! `tetsim bench`: the issue-8 cantilever workload at several sizes (see `tetsim::bench`).
+//! `tetsim bench`: the benchmark cantilever workload at several sizes (see `tetsim::bench`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -20,7 +20,7 @@ pub enum Integrator {
 
 /// How the assembled strategies (AMG, Cholesky) store Newton's matrix A (scene key
 /// `matrix_precision`). f32 halves the bytes CG's product and the multigrid smoother read (a
-/// third less CG time on the issue-8 beams, same Newton and CG iteration counts, the tip within
+/// third less CG time on the benchmark cantilever beams, same Newton and CG iteration counts, the tip within
 /// 1e-7); but A's rounding, about 6e-8 of each entry, limits how exactly a Newton step solves
 /// A·d = −g to about 6e-8 times the condition of A scaled by its diagonal: harmless with a
 /// dynamic step's mass term (M/h² bounds it), not with the stiffness alone, whose condition
@@ -127,7 +127,7 @@ pub struct SolverParams {
     pub inexact_newton: bool,
     /// With the AMG preconditioner, CG multiplies with the upper triangle of A stored in f32
     /// (f64 vectors and sums) instead of the full f64 matrix: a third of the bytes per product.
-    /// Newton and CG iteration counts are unchanged on the issue-8 beams. Default false (see
+    /// Newton and CG iteration counts are unchanged on the benchmark cantilever beams. Default false (see
     /// the user guide's speed section for the measurement).
     pub f32_matrix: bool,
     /// How the assembled strategies store A (see [`MatrixPrecision`]). Default auto.

@@ -1,6 +1,6 @@
-//! Issue 17, "every input checked, every alarm true", through the real binary: each bad input
-//! of the issue is refused before the first frame with file:line:key and exit 1 (no panic,
-//! abort, hang, or NaN with exit 0), and the alarms stay silent where nothing is wrong.
+//! Every input checked, every alarm true, through the real binary: each bad input a hurried or
+//! hostile user would type is refused before the first frame with file:line:key and exit 1 (no
+//! panic, abort, hang, or NaN with exit 0), and the alarms stay silent where nothing is wrong.
 
 use std::path::Path;
 use std::process::Output;

@@ -54,7 +54,7 @@ use crate::math::{Mat3, Vec3};
 /// `max_coarse_dofs`; beyond it the coarsest level is only smoothed.
 const DIRECT_LIMIT: usize = 3000;
 
-/// AMG settings. Defaults measured on the issue-8 cantilever beams (see each field).
+/// AMG settings. Defaults measured on the benchmark cantilever beams (see each field).
 #[derive(Clone, Debug, PartialEq)]
 pub struct AmgParams {
     /// Strength threshold θ: j is a strong neighbour of i when

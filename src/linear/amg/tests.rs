@@ -1,4 +1,4 @@
-//! AMG on the issue-8 cantilever: a beam [0,4]×[0,1]×[0,1] of 4n×n×n cubes, Neo-Hookean
+//! AMG on the benchmark cantilever: a beam [0,4]×[0,1]×[0,1] of 4n×n×n cubes, Neo-Hookean
 //! E = 1e6, ν = 0.3, ρ = 1000, clamped at x = 0, backward-Euler system with h = 1/30, γ = 0.01,
 //! linearized at a bent (not rest) state.
 
