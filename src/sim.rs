@@ -32,7 +32,6 @@ use crate::integrator::{
 };
 use crate::math::Vec3;
 use crate::mesh::ordering::Renumbering;
-use energy::initial_ledger;
 
 /// Positions (m), velocities (m/s) and time (s; the load factor when quasistatic).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -668,6 +667,39 @@ impl Simulation {
             }
         }
         (stats, true)
+    }
+}
+
+/// The audit's ledger at the initial state: its elastic energy and, for the quasistatic trapezoid
+/// rule, the loads (zero at load factor 0) and reactions there.
+/// Under MPI (`ranks`) the forces are completed over the ranks and the energy is this rank's
+/// share (the audit sums it).
+fn initial_ledger(
+    body: &ElasticBody,
+    boundary: &Boundary,
+    free: &[Vec3],
+    x: &[Vec3],
+    ranks: Option<&dyn crate::parallel::Ranks>,
+) -> Ledger {
+    let n = body.vertex_count();
+    let mut loads = vec![Vec3::zeros(); n];
+    boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
+    let mut forces = vec![Vec3::zeros(); n];
+    body.add_forces(x, &mut forces);
+    if let Some(ranks) = ranks {
+        crate::parallel::complete_vectors(ranks, &mut forces);
+    }
+    let reactions = forces
+        .iter()
+        .zip(&loads)
+        .zip(free)
+        .map(|((f, l), m)| -(f + l).component_mul(&(Vec3::repeat(1.0) - m)))
+        .collect();
+    Ledger {
+        elastic: body.energy(x),
+        loads,
+        reactions,
+        forces,
     }
 }
 

@@ -2,9 +2,7 @@
 //! ledger it carries on, and the Simpson refinement of a flagged step.
 
 use super::Simulation;
-use crate::audit::{EnergyAudit, Ledger, StepRecord, audit_finish, audit_refined, audit_sums};
-use crate::boundary::{Boundary, Clock};
-use crate::elastic::ElasticBody;
+use crate::audit::{EnergyAudit, StepRecord, audit_finish, audit_refined, audit_sums};
 use crate::math::Vec3;
 
 impl Simulation {
@@ -91,37 +89,4 @@ fn work_over_step(f: &[Vec3], x: &[Vec3], xn: &[Vec3]) -> f64 {
         .zip(x.iter().zip(xn))
         .map(|(f, (x, xn))| f.dot(&(x - xn)))
         .sum()
-}
-
-/// The audit's ledger at the initial state: its elastic energy and, for the quasistatic trapezoid
-/// rule, the loads (zero at load factor 0) and reactions there.
-/// Under MPI (`ranks`) the forces are completed over the ranks and the energy is this rank's
-/// share (the audit sums it).
-pub(super) fn initial_ledger(
-    body: &ElasticBody,
-    boundary: &Boundary,
-    free: &[Vec3],
-    x: &[Vec3],
-    ranks: Option<&dyn crate::parallel::Ranks>,
-) -> Ledger {
-    let n = body.vertex_count();
-    let mut loads = vec![Vec3::zeros(); n];
-    boundary.external_forces(&Clock::LoadFactor(0.0), body.masses(), &mut loads);
-    let mut forces = vec![Vec3::zeros(); n];
-    body.add_forces(x, &mut forces);
-    if let Some(ranks) = ranks {
-        crate::parallel::complete_vectors(ranks, &mut forces);
-    }
-    let reactions = forces
-        .iter()
-        .zip(&loads)
-        .zip(free)
-        .map(|((f, l), m)| -(f + l).component_mul(&(Vec3::repeat(1.0) - m)))
-        .collect();
-    Ledger {
-        elastic: body.energy(x),
-        loads,
-        reactions,
-        forces,
-    }
 }
