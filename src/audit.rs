@@ -24,6 +24,13 @@
 //! not −∇E) still shows in the remainder, and invented kinetic energy is flagged whatever the
 //! curvature. Half the estimate's size is allowed on top for its own error.
 //!
+//! **Other schemes** (see [`crate::integrator::scheme`]): the same balance with the scheme's
+//! inertia force `m·(v − ṽ)/τ_a` in the reaction and the damping's work over Δx. The remainder is
+//! then that scheme's numerical dissipation: BDF2's, smaller than backward Euler's; Newmark's
+//! average-acceleration rule keeps the energy of a linear undamped body, so its remainder is zero
+//! up to Newton's residual and, for a nonlinear one, the trapezoid's third-order error, which
+//! the curvature allowance below covers.
+//!
 //! **Contact** (see [`crate::contact::term::ContactAccount`]): the barrier B is a level beside
 //! E, a moving obstacle's work `B(xⁿ, oⁿ⁺¹) − B(xⁿ, oⁿ)` joins the boundary work, friction's
 //! work f_friction·Δx joins the loads', the contact force at the end counts in the reactions, and
@@ -87,6 +94,9 @@ pub struct Ledger {
     /// Elastic forces f_el at the current state, N (empty when unknown: then no allowance for a
     /// non-convex energy is made).
     pub forces: Vec<Vec3>,
+    /// The damping force's magnitude γ·K·v + α·M·v at the current state, N, kept for schemes
+    /// that balance the forces at both ends of a step (empty: zero).
+    pub damping: Vec<Vec3>,
 }
 
 /// Everything one step's audit reads. Slices are per vertex.
@@ -115,8 +125,9 @@ pub struct StepRecord<'a> {
     pub residual: &'a [Vec3],
     /// E at the end, J.
     pub elastic: f64,
-    /// h (s) and the Rayleigh coefficients γ (s), α (1/s); None when quasistatic.
-    pub dynamic: Option<(f64, f64, f64)>,
+    /// The step as its time scheme made it, and the Rayleigh coefficients γ (s), α (1/s); None
+    /// when quasistatic.
+    pub dynamic: Option<(crate::integrator::Inertial<'a>, f64, f64)>,
     /// With contact: its forces at the end (N) and its share of the balance.
     pub contact: Option<(&'a [Vec3], crate::contact::term::ContactAccount)>,
 }
@@ -126,6 +137,10 @@ const ROUNDING: f64 = 1e-9;
 
 /// The share of the trapezoid curvature estimate allowed for its own error.
 const CURVATURE_ERROR: f64 = 0.5;
+
+/// Newmark: the share of the curvature term its quadrature error of the elastic work may reach
+/// before a remainder counts (that error is third order in h, the curvature second).
+const TRAPEZOID_ERROR: f64 = 0.05;
 
 /// Quasistatic: the share of the works the trapezoid rule may miss before a remainder counts.
 const QUADRATURE: f64 = 0.05;
@@ -146,11 +161,13 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
     let (mut load_work, mut boundary_work, mut damping, mut kinetic_change) = (0.0, 0.0, 0.0, 0.0);
     let (mut residual_work, mut gravitational) = (0.0, 0.0);
     let (mut potential_change, mut kinetic_level, mut curvature) = (0.0, 0.0, 0.0);
+    let (mut scheme_allowance, mut trapezoidal) = (0.0, 0.0);
     let curvature_known = ledger.forces.len() == n;
     let quasistatic = r.dynamic.is_none();
-    if quasistatic {
-        ledger.loads.resize(n, Vec3::zeros());
-        ledger.reactions.resize(n, Vec3::zeros());
+    ledger.loads.resize(n, Vec3::zeros());
+    ledger.reactions.resize(n, Vec3::zeros());
+    if !quasistatic {
+        ledger.damping.resize(n, Vec3::zeros());
     }
     // Plain loops in vertex order: deterministic, and cheap next to one Newton iteration. Many
     // parallel slices are read at the same index, so an index loop is the clear form.
@@ -168,14 +185,47 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
             curvature += 0.5 * (ledger.forces[i] - r.f_el[i]).dot(&dx);
         }
         match r.dynamic {
-            Some((h, gamma, alpha)) => {
+            Some((step, gamma, alpha)) => {
                 let (v, vn) = (r.v[i], r.vn[i]);
-                let reaction = (m * (v - vn) / h + alpha * m * v + gamma * r.kv[i] - applied)
-                    .component_mul(&fixed);
-                load_work += load.dot(&dx);
-                boundary_work += reaction.dot(&dx);
-                damping += h * v.dot(&(gamma * r.kv[i] + alpha * m * v));
+                let inertia = m * (v - step.base_velocity[i]) / step.inertia_time;
+                let reaction =
+                    (inertia + alpha * m * v + gamma * r.kv[i] - applied).component_mul(&fixed);
+                let damping_force = gamma * r.kv[i] + alpha * m * v;
+                let w = step.start_weight;
+                if w == 0.0 {
+                    load_work += load.dot(&dx);
+                    boundary_work += reaction.dot(&dx);
+                } else {
+                    // The works as the scheme weighs them: (1 − w)·end + w·start.
+                    load_work += ((1.0 - w) * load + w * ledger.loads[i]).dot(&dx);
+                    boundary_work += ((1.0 - w) * reaction + w * ledger.reactions[i]).dot(&dx);
+                    damping += w * (ledger.damping[i] - damping_force).dot(&dx);
+                }
+                ledger.loads[i] = load;
+                ledger.reactions[i] = reaction;
+                ledger.damping[i] = damping_force;
+                damping += if step.displacement_is_hv {
+                    step.h * v.dot(&damping_force)
+                } else {
+                    dx.dot(&damping_force)
+                };
                 kinetic_change += 0.5 * m * (v.norm_squared() - vn.norm_squared());
+                if let Some(previous) = step.previous_velocity {
+                    // BDF2's own kinetic level ¼(‖vⁿ⁺¹‖² + ‖2vⁿ⁺¹ − vⁿ‖²)_M falls where ½‖v‖²_M
+                    // may rise for a step: their changes' difference is allowed.
+                    let g = |a: Vec3, b: Vec3| (2.0 * a - b).norm_squared() - a.norm_squared();
+                    scheme_allowance += (0.25 * m * (g(v, vn) - g(vn, previous[i]))).abs();
+                }
+                if let Some((start, excess)) = step.start_acceleration {
+                    // Newmark with β ≠ γ/2: Δx differs from h(vⁿ + vⁿ⁺¹)/2 by (β − γ/2)h²Δa.
+                    let a = step.acceleration(i, &v);
+                    let mean = (1.0 - step.start_weight) * a + step.start_weight * start[i];
+                    scheme_allowance +=
+                        (excess * step.h * step.h * m * (a - start[i]).dot(&mean)).abs();
+                }
+                if step.start_weight > 0.0 {
+                    trapezoidal = 1.0;
+                }
                 kinetic_level += 0.5 * m * (v.norm_squared() + vn.norm_squared());
                 potential_change -= gravity_force.dot(&dx);
             }
@@ -198,10 +248,18 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
         gravitational,
         potential_change,
         kinetic_level,
-        curvature + contact.curvature,
+        // Newmark: the barrier's work by the trapezoid is no Bregman term to allow for.
+        curvature
+            + if trapezoidal > 0.0 {
+                0.0
+            } else {
+                contact.curvature
+            },
         r.elastic + contact.barrier_end,
         ledger.elastic + contact.barrier_start,
         if quasistatic { 1.0 } else { 0.0 },
+        scheme_allowance,
+        trapezoidal,
     ];
     ledger.elastic = r.elastic;
     ledger.forces.clear();
@@ -211,8 +269,10 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
 
 /// The sums of [`audit_sums`]: load work, boundary work, damping, kinetic change, residual
 /// work, gravitational energy, potential change, kinetic level, curvature, stored energy
-/// (elastic, and the barrier's with contact) at the end and at the start, and 1 for a quasistatic step (0 otherwise).
-pub type AuditSums = [f64; 12];
+/// (elastic, and the barrier's with contact) at the end and at the start, 1 for a quasistatic
+/// step (0 otherwise), the scheme's own allowance (BDF2's two-step kinetic level, Newmark's
+/// β ≠ γ/2), and 1 for a step that balances the forces at both ends (Newmark's).
+pub type AuditSums = [f64; 14];
 
 /// The audit from its sums (added over the ranks under MPI; a quasistatic flag summed over
 /// N ranks is N).
@@ -230,6 +290,8 @@ pub fn audit_finish(sums: &AuditSums) -> EnergyAudit {
         elastic,
         elastic_before,
         quasistatic,
+        scheme_allowance,
+        trapezoidal,
     ] = *sums;
     let quasistatic = quasistatic > 0.0;
     let elastic_change = elastic - elastic_before;
@@ -245,8 +307,15 @@ pub fn audit_finish(sums: &AuditSums) -> EnergyAudit {
     // What a non-convex stretch may give back, plus half the curvature term for the trapezoid
     // estimate's own (third-order) error: on scenes/squash_release.toml's frame 15 (tets crushed
     // inside out as the plate stops) the remainder is −21.0 J against an estimate of −21.4 J.
-    let convexity = (-curvature).max(0.0) + CURVATURE_ERROR * curvature.abs();
-    let mut tolerance = residual_work.abs() + ROUNDING * magnitude + convexity;
+    // A step that weighs the forces at both ends (Newmark) has no Bregman term to allow for:
+    // its remainder is the quadrature error of the work, of either sign, and energy it creates
+    // (a stiff barrier or sticking friction under the trapezoidal rule) is flagged.
+    let convexity = if trapezoidal > 0.0 {
+        TRAPEZOID_ERROR * curvature.abs()
+    } else {
+        (-curvature).max(0.0) + CURVATURE_ERROR * curvature.abs()
+    };
+    let mut tolerance = residual_work.abs() + ROUNDING * magnitude + convexity + scheme_allowance;
     if quasistatic {
         tolerance += QUADRATURE * (load_work.abs() + boundary_work.abs() + elastic_change.abs());
     }
@@ -298,7 +367,7 @@ mod tests {
         // g(t) = E(xⁿ + tΔx) = −t⁶; the forces' work w(t) = −g′(t) = 6t⁵.
         let (start, middle, end) = (0.0, 6.0 / 32.0, 6.0);
         let trapezoid = 0.5 * (start - end);
-        let mut sums: AuditSums = [0.0; 12];
+        let mut sums: AuditSums = [0.0; 14];
         sums[3] = 6.0; // kinetic change, so that the remainder −(ΔK + ΔE) is −5 J
         sums[7] = 6.0; // kinetic level
         sums[8] = trapezoid;

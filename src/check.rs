@@ -595,13 +595,10 @@ pub fn check_terms(
     let vn: Vec<Vec3> = (0..n).map(|_| 0.1 * edge / h * rng.vector()).collect();
     let f_ext: Vec<Vec3> = body.masses().iter().map(|&m| m * gravity).collect();
     let free = vec![Vec3::repeat(1.0); n];
+    let step = crate::integrator::BackwardEulerStep::new(&xn, &vn, h);
     let ctx = StepContext {
         body,
-        kind: StepKind::Dynamic {
-            xn: &xn,
-            vn: &vn,
-            h,
-        },
+        kind: StepKind::Dynamic(step.inertial()),
         f_ext: &f_ext,
         free: &free,
         params: &solver,

@@ -25,7 +25,7 @@ use crate::linear::state::SolverState;
 pub const FILE_NAME: &str = "checkpoint.bin";
 
 /// The layout version of [`Checkpoint`]; a change of the structs below bumps it.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 
 const MAGIC: &[u8; 8] = b"TETSIMCK";
 
@@ -95,6 +95,10 @@ pub struct SimulationState {
     pub unfolding: Option<(u64, u32)>,
     /// Inverted tets at the end of the last frame.
     pub inverted_at_end: u64,
+    /// What the time scheme keeps between steps (BDF2's previous step, Newmark's acceleration).
+    pub history: crate::integrator::scheme::SavedHistory,
+    /// The energy audit's damping forces at the state (see [`crate::audit::Ledger::damping`]).
+    pub ledger_damping: Vec<[f64; 3]>,
 }
 
 /// One written frame: (frame, time, [(file, SHA-256)]).

@@ -6,7 +6,7 @@ use std::fmt;
 
 use crate::boundary::Boundary;
 use crate::elastic::ElasticBody;
-use crate::integrator::{Integrator, SolverParams, StepStats};
+use crate::integrator::{SolverParams, StepStats};
 use crate::material::{Definiteness, Material};
 use crate::math::{Mat3, Vec3};
 
@@ -71,7 +71,7 @@ pub fn plausibility_warnings(
                  (ρ = {} kg/m³, L = {along:.3e} m along gravity, E ≈ {modulus:.3e} Pa){}; \
                  check the units of youngs_modulus (Pa) and of the mesh (m)",
                 body.density,
-                if params.integrator == Integrator::BackwardEuler && params.dt > wave_time {
+                if params.integrator.is_dynamic() && params.dt > wave_time {
                     format!(
                         ", and within one frame (dt = {} s > L/c = {wave_time:.2e} s)",
                         params.dt
@@ -85,7 +85,7 @@ pub fn plausibility_warnings(
     if let Some(w) = locking_warning(body) {
         warnings.push(w);
     }
-    if params.integrator == Integrator::BackwardEuler && size > 0.0 {
+    if params.integrator.is_dynamic() && size > 0.0 {
         let fall = 0.5 * g * params.dt * params.dt;
         if fall > size {
             warnings.push(format!(

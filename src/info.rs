@@ -25,6 +25,9 @@
 //!   motion. Backward Euler still damps it: with N steps per period the amplitude falls by
 //!   `1 − (1 + (2π/N)²)^(−N/2)` per period (61 % at N = 20, 9 % at N = 200);
 //!   `backward_euler_damping_per_period` is that loss at the scene's own step (dt/substeps).
+//!   `amplitude_kept_per_period` is what the scene's own scheme keeps: BDF2 and Newmark are
+//!   second order (Newmark's average-acceleration rule keeps it all, at the price of a period
+//!   lengthened by about (ωh)²/12).
 //! - `explicit_stability` = min over tets of r / c_p, r the tet's inradius (3V over its surface
 //!   area): the CFL limit an explicit integrator would need (not tetsim's: backward Euler is
 //!   stable at any step). A regular tet's lumped-mass limit 2/ω_max is about twice this.
@@ -128,6 +131,8 @@ pub struct SceneInfo {
     pub lowest_frequency: FrequencyEstimate,
     /// The scene's step h = dt/substeps, s (quasistatic: None).
     pub step: Option<f64>,
+    /// The scene's time scheme.
+    pub integrator: crate::integrator::Integrator,
     /// Smallest tet inradius, m.
     pub min_inradius: f64,
     /// min r/c_p over the tets, s.
@@ -149,6 +154,19 @@ impl SceneInfo {
         let f = self.lowest_frequency.hz.filter(|&f| f > 0.0)?;
         let wh = 2.0 * std::f64::consts::PI * f * self.step?;
         Some(-(-(std::f64::consts::PI / wh) * (wh * wh).ln_1p()).exp_m1())
+    }
+
+    /// The share of the lowest mode's amplitude `scheme` keeps per period of it at the scene's
+    /// step (a free undamped linear oscillation): the scheme's spectral radius at ωh, raised to
+    /// the steps per period 2π/(ωh).
+    pub fn amplitude_kept_per_period(&self, scheme: crate::integrator::Integrator) -> Option<f64> {
+        let f = self.lowest_frequency.hz.filter(|&f| f > 0.0)?;
+        let wh = 2.0 * std::f64::consts::PI * f * self.step?;
+        Some(
+            scheme
+                .amplitude_per_step(wh)
+                .powf(2.0 * std::f64::consts::PI / wh),
+        )
     }
 
     /// The `info` object of manifest.json and `tetsim info --json`.
@@ -186,6 +204,8 @@ impl SceneInfo {
                 "scene_step": self.step,
                 "backward_euler_accuracy": self.backward_euler_accuracy_dt(),
                 "backward_euler_damping_per_period": self.backward_euler_damping_per_period(),
+                "integrator": self.integrator.name(),
+                "amplitude_kept_per_period": self.amplitude_kept_per_period(self.integrator),
                 "explicit_stability": self.explicit_stability_dt,
                 "min_inradius": self.min_inradius,
             },
@@ -226,7 +246,10 @@ pub fn describe(scene: &Scene, sim: &Simulation) -> SceneInfo {
         .map(MaterialInfo::s_wave_speed)
         .fold(f64::INFINITY, f64::min);
     let (lo, hi) = body.mesh.bounding_box();
-    let step = (sim.params.integrator == crate::integrator::Integrator::BackwardEuler)
+    let step = sim
+        .params
+        .integrator
+        .is_dynamic()
         .then(|| sim.params.dt / sim.params.substeps as f64);
     SceneInfo {
         vertices: body.vertex_count(),
@@ -243,6 +266,7 @@ pub fn describe(scene: &Scene, sim: &Simulation) -> SceneInfo {
         ),
         materials,
         step,
+        integrator: sim.params.integrator,
         min_inradius,
         explicit_stability_dt: explicit,
     }
@@ -341,13 +365,10 @@ fn lowest_frequency(
     };
     let rest = &body.mesh.positions;
     let zeros = vec![Vec3::zeros(); n];
+    let step = crate::integrator::BackwardEulerStep::new(rest, &zeros, 1.0 / sigma.sqrt());
     let ctx = StepContext {
         body,
-        kind: StepKind::Dynamic {
-            xn: rest,
-            vn: &zeros,
-            h: 1.0 / sigma.sqrt(),
-        },
+        kind: StepKind::Dynamic(step.inertial()),
         f_ext: &zeros,
         free,
         params: &params,
@@ -579,6 +600,23 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
             s,
             "backward Euler's numerical damping of the lowest mode at h: {:.3} % of its amplitude per period",
             100.0 * loss
+        );
+    }
+    if info.step.is_some() {
+        use crate::integrator::Integrator;
+        let kept = |scheme| {
+            info.amplitude_kept_per_period(scheme)
+                .map_or("-".to_string(), |k| format!("{:.3} %", 100.0 * k))
+        };
+        let _ = writeln!(
+            s,
+            "integrator: {}; the lowest mode keeps {} of its amplitude per period at h \
+             (backward-euler {}, bdf2 {}, newmark {})",
+            p.integrator.name(),
+            kept(p.integrator),
+            kept(Integrator::BackwardEuler),
+            kept(Integrator::Bdf2),
+            kept(Integrator::newmark()),
         );
     }
     let _ = writeln!(

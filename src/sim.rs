@@ -13,6 +13,7 @@
 //! }
 //! ```
 
+mod acceleration;
 mod checkpoint;
 mod contact;
 mod control;
@@ -27,6 +28,7 @@ use crate::audit::Ledger;
 use crate::boundary::{Boundary, Clock};
 use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
+use crate::integrator::scheme::History;
 use crate::integrator::{
     Integrator, Newton, OnFailure, SolverParams, StepContext, StepKind, StepStats,
 };
@@ -60,6 +62,9 @@ pub struct Simulation {
     f_ext: Vec<Vec3>,
     xn: Vec<Vec3>,
     vn: Vec<Vec3>,
+    /// What the time scheme keeps between steps, and at the start of the frame.
+    history: History,
+    saved_history: History,
     saved: State,
     newton: Newton,
     ledger: Ledger,
@@ -143,6 +148,8 @@ impl Simulation {
             f_ext: vec![Vec3::zeros(); n],
             xn: vec![Vec3::zeros(); n],
             vn: vec![Vec3::zeros(); n],
+            history: History::default(),
+            saved_history: History::default(),
             saved: state.clone(),
             free,
             newton,
@@ -251,12 +258,13 @@ impl Simulation {
 
     /// The boundary clock at time (or load factor) t.
     fn clock_at(&self, t: f64) -> Clock {
-        match self.params.integrator {
-            Integrator::BackwardEuler => Clock::Time {
+        if self.params.integrator.is_dynamic() {
+            Clock::Time {
                 time: t,
                 run_duration: self.params.dt * self.ramp_frames() as f64,
-            },
-            Integrator::Quasistatic => Clock::LoadFactor(t),
+            }
+        } else {
+            Clock::LoadFactor(t)
         }
     }
 
@@ -352,9 +360,10 @@ impl Simulation {
     /// Gravitational potential −Σ m g·x of the current state, J (quasistatic: of the gravity
     /// ramped to the current load factor).
     pub fn gravitational_energy(&self) -> f64 {
-        let scale = match self.params.integrator {
-            Integrator::BackwardEuler => 1.0,
-            Integrator::Quasistatic => self.state.t,
+        let scale = if self.params.integrator.is_dynamic() {
+            1.0
+        } else {
+            self.state.t
         };
         crate::audit::gravitational_energy(&self.body, self.boundary.gravity * scale, &self.state.x)
     }
@@ -370,8 +379,13 @@ impl Simulation {
             self.frame = frame;
             return Ok(stats);
         }
-        self.saved.clone_from(&self.state);
         let moved = self.ledger_x != self.state.x;
+        if moved {
+            // Moved from outside: the scheme's history is not this state's.
+            self.history.clear();
+        }
+        self.saved.clone_from(&self.state);
+        self.saved_history.clone_from(&self.history);
         let recovery_changed = self.update_recovery(moved || self.frame == 0);
         if moved || recovery_changed {
             let ranks = self.newton.ranks().cloned();
@@ -387,8 +401,7 @@ impl Simulation {
         let mut attempt = 0;
         let mut stats = loop {
             if self.newton.interrupted() {
-                self.state.clone_from(&self.saved);
-                self.ledger.clone_from(&self.saved_ledger);
+                self.back_to_frame_start();
                 return Err(Error::Interrupted { frame });
             }
             let substeps = self.params.substeps << attempt;
@@ -399,8 +412,7 @@ impl Simulation {
             self.blocked = false;
             let (stats, finite) = self.advance(frame, substeps, stop_early);
             if self.newton.interrupted() {
-                self.state.clone_from(&self.saved);
-                self.ledger.clone_from(&self.saved_ledger);
+                self.back_to_frame_start();
                 return Err(Error::Interrupted { frame });
             }
             if stats.converged && finite {
@@ -415,8 +427,7 @@ impl Simulation {
                     "frame {frame}: {reason}; retrying with {} substeps",
                     substeps * 2
                 );
-                self.state.clone_from(&self.saved);
-                self.ledger.clone_from(&self.saved_ledger);
+                self.back_to_frame_start();
                 attempt += 1;
                 continue;
             }
@@ -431,8 +442,7 @@ impl Simulation {
                 // The obstacle's prescribed motion cannot be followed: it would pass through
                 // the body (caught against another obstacle, or pushed faster than it can
                 // deform). Going on would put the obstacle inside the body at the next frame.
-                self.state.clone_from(&self.saved);
-                self.ledger.clone_from(&self.saved_ledger);
+                self.back_to_frame_start();
                 return Err(Error::Solve {
                     frame,
                     message: format!(
@@ -444,8 +454,7 @@ impl Simulation {
                 });
             }
             if self.params.on_failure == OnFailure::Stop || !finite {
-                self.state.clone_from(&self.saved);
-                self.ledger.clone_from(&self.saved_ledger);
+                self.back_to_frame_start();
                 return Err(Error::Solve {
                     frame,
                     message: format!("{reason}{inverted}. {ADVICE}"),
@@ -506,6 +515,14 @@ impl Simulation {
         Ok(all)
     }
 
+    /// Undo a frame's attempt: the state, the audit's ledger and the scheme's history as they
+    /// were at the frame's start.
+    fn back_to_frame_start(&mut self) {
+        self.state.clone_from(&self.saved);
+        self.ledger.clone_from(&self.saved_ledger);
+        self.history.clone_from(&self.saved_history);
+    }
+
     /// Run `substeps` steps of the frame; returns the stats and whether the state is finite.
     fn advance(&mut self, frame: usize, substeps: usize, stop_early: bool) -> (StepStats, bool) {
         let mut stats = StepStats {
@@ -518,20 +535,17 @@ impl Simulation {
         let p = &params;
         let ramp_frames = self.ramp_frames.unwrap_or(p.frames);
         for i in 1..=substeps {
-            let (clock, kind_is_dynamic, h, t) = match p.integrator {
-                Integrator::BackwardEuler => {
-                    let h = p.dt / substeps as f64;
-                    let t = (frame - 1) as f64 * p.dt + i as f64 * h;
-                    let clock = Clock::Time {
-                        time: t,
-                        run_duration: p.dt * ramp_frames as f64,
-                    };
-                    (clock, true, h, t)
-                }
-                Integrator::Quasistatic => {
-                    let s = ((frame - 1) as f64 + i as f64 / substeps as f64) / ramp_frames as f64;
-                    (Clock::LoadFactor(s), false, 0.0, s)
-                }
+            let (clock, kind_is_dynamic, h, t) = if p.integrator.is_dynamic() {
+                let h = p.dt / substeps as f64;
+                let t = (frame - 1) as f64 * p.dt + i as f64 * h;
+                let clock = Clock::Time {
+                    time: t,
+                    run_duration: p.dt * ramp_frames as f64,
+                };
+                (clock, true, h, t)
+            } else {
+                let s = ((frame - 1) as f64 + i as f64 / substeps as f64) / ramp_frames as f64;
+                (Clock::LoadFactor(s), false, 0.0, s)
             };
             if self.boundary.has_releases() {
                 self.boundary.fill_free_mask(Some(&clock), &mut self.free);
@@ -539,9 +553,12 @@ impl Simulation {
             self.xn.copy_from_slice(&self.state.x);
             self.vn.copy_from_slice(&self.state.v);
             if kind_is_dynamic {
-                for ((x, xn), vn) in self.state.x.iter_mut().zip(&self.xn).zip(&self.vn) {
-                    *x = xn + h * vn;
+                if self.history.needs_acceleration(p.integrator, self.xn.len()) {
+                    let a = self.start_acceleration(&clock, h);
+                    self.history.set_acceleration(a);
                 }
+                let predicted = self.history.plan(p.integrator, &self.xn, &self.vn, h);
+                self.state.x.copy_from_slice(predicted);
             }
             self.boundary
                 .prescribe(&clock, &self.initial, &mut self.state.x);
@@ -568,11 +585,7 @@ impl Simulation {
                 contact.prepare_guess(&self.xn, &mut self.state.x, &self.free);
             }
             let kind = if kind_is_dynamic {
-                StepKind::Dynamic {
-                    xn: &self.xn,
-                    vn: &self.vn,
-                    h,
-                }
+                StepKind::Dynamic(self.history.inertial(&self.xn, &self.vn))
             } else {
                 StepKind::Static
             };
@@ -658,10 +671,19 @@ impl Simulation {
             }
             let elastic = info.elastic_energy;
             let gravity = self.boundary.gravity * clock.gravity_scale();
-            let dynamic = kind_is_dynamic.then_some((h, p.rayleigh_stiffness, p.rayleigh_mass));
-            stats
-                .energy
-                .add(&self.audit_substep(elastic, gravity, dynamic));
+            stats.energy.add(&self.audit_substep(
+                elastic,
+                gravity,
+                kind_is_dynamic,
+                (p.rayleigh_stiffness, p.rayleigh_mass),
+            ));
+            self.history.finish(
+                p.integrator,
+                &self.xn,
+                &self.vn,
+                &self.state.x,
+                &self.state.v,
+            );
             if !info.converged && stop_early {
                 break;
             }
@@ -700,6 +722,7 @@ fn initial_ledger(
         loads,
         reactions,
         forces,
+        damping: Vec::new(),
     }
 }
 

@@ -41,14 +41,16 @@ pub mod newton;
 pub mod params;
 pub mod policy;
 pub mod problem;
+pub mod scheme;
 pub mod stats;
 pub mod terms;
 
 pub use crate::linear::PreconditionerKind;
 pub use line_search::MAX_LINE_SEARCH_CUTS;
 pub use newton::Newton;
-pub use params::{DampingTangent, Integrator, MatrixPrecision, OnFailure, SolverParams};
+pub use params::{DampingTangent, MatrixPrecision, OnFailure, SolverParams};
 pub use problem::{IncrementalPotential, StepContext, StepKind};
+pub use scheme::{BackwardEulerStep, Inertial, Integrator};
 pub use stats::{NewtonInfo, StepStats, Timings};
 pub use terms::{HessianShape, Term};
 

@@ -327,10 +327,8 @@ impl Newton {
             // Against a stiff barrier the residual cannot fall below the rounding of the contact
             // forces (two cubes meeting at 0.45 m/s stalled at relative residual 1e-6 for 200
             // iterations) while the step it asks for is already nothing.
-            if let (Some(contact), StepKind::Dynamic { h, .. }) =
-                (&self.potential.contact, &ctx.kind)
-            {
-                let limit = 1e-5 * contact.bounding_box_diagonal() * h;
+            if let (Some(contact), StepKind::Dynamic(step)) = (&self.potential.contact, &ctx.kind) {
+                let limit = 1e-5 * contact.bounding_box_diagonal() * step.h;
                 let largest = self.dx.iter().map(|d| d.amax()).fold(0.0, f64::max);
                 // Only near convergence: a state pressed deep into the barrier also asks for a tiny step
                 // (its Hessian is huge), with forces far from balanced.
@@ -453,8 +451,10 @@ impl Newton {
         let mut sum = 0.0;
         for (i, (f, free)) in ctx.f_ext.iter().zip(ctx.free).enumerate() {
             let mut d = f.component_mul(free).norm_squared();
-            if let StepKind::Dynamic { vn, h, .. } = ctx.kind {
-                d += (masses[i] / h * vn[i]).component_mul(free).norm_squared();
+            if let StepKind::Dynamic(step) = ctx.kind {
+                d += (masses[i] / step.inertia_time * step.base_velocity[i])
+                    .component_mul(free)
+                    .norm_squared();
             }
             sum += d;
         }
@@ -472,11 +472,12 @@ impl Newton {
         v: &mut [Vec3],
     ) -> Evaluation {
         let started = Instant::now();
-        if let StepKind::Dynamic { xn, h, .. } = ctx.kind {
+        if let StepKind::Dynamic(step) = ctx.kind {
+            let tau = step.velocity_time;
             v.par_iter_mut()
-                .zip(x.par_iter().zip(xn.par_iter()))
+                .zip(x.par_iter().zip(step.still.par_iter()))
                 .with_min_len(CHUNK)
-                .for_each(|(v, (x, xn))| *v = (x - xn) / h);
+                .for_each(|(v, (x, still))| *v = (x - still) / tau);
         }
         let potential = self
             .potential
@@ -571,8 +572,8 @@ fn absolute_floor(
     let roots = (vertices as f64).sqrt();
     let mut floor =
         stiffness * edge * edge * roots * 1e-12_f64.max(POSITION_ROUNDING * reach / edge);
-    if let StepKind::Dynamic { h, .. } = ctx.kind {
-        floor = floor.max(POSITION_ROUNDING * mass * reach / (h * h) * roots);
+    if let StepKind::Dynamic(step) = ctx.kind {
+        floor = floor.max(POSITION_ROUNDING * mass * reach / step.inertia_denominator * roots);
     }
     floor
 }

@@ -1,22 +1,13 @@
 //! Every setting of a step's solve: what is integrated, Newton's and CG's tolerances, the
 //! definiteness strategy, the linear-solver strategy, and the failure policy.
 
+use super::scheme::Integrator;
 use crate::linear::LinearSolverParams;
 use crate::linear::PreconditionerKind;
 use crate::linear::amg::AmgParams;
 use crate::linear::cg::CgParams;
 use crate::linear::sparse::Precision;
 use crate::material::{DampingStiffness, Definiteness};
-
-/// What is integrated.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Integrator {
-    /// Backward (implicit) Euler in time, SPEC §4.
-    #[default]
-    BackwardEuler,
-    /// Static equilibrium under loads ramped over load steps.
-    Quasistatic,
-}
 
 /// How the assembled strategies (AMG, Cholesky) store Newton's matrix A (scene key
 /// `matrix_precision`). f32 halves the bytes CG's product and the multigrid smoother read (a
@@ -30,7 +21,7 @@ pub enum Integrator {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MatrixPrecision {
-    /// f32 for backward Euler with the AMG, else f64 (quasistatic steps, the Cholesky
+    /// f32 for dynamic steps with the AMG, else f64 (quasistatic steps, the Cholesky
     /// preconditioner).
     #[default]
     Auto,
@@ -84,11 +75,11 @@ impl DampingTangent {
 /// Every solver setting, with its unit and default (built by the scene from `[solver]`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolverParams {
-    /// Backward Euler (default) or quasistatic.
+    /// The time scheme (default backward Euler) or quasistatic.
     pub integrator: Integrator,
-    /// Seconds per frame (backward Euler). Default 1/30 s.
+    /// Seconds per frame (dynamic schemes). Default 1/30 s.
     pub dt: f64,
-    /// Frames (backward Euler) or load steps (quasistatic). Default 60.
+    /// Frames (dynamic) or load steps (quasistatic). Default 60.
     pub frames: usize,
     /// Time steps (load increments) per frame. Default 1.
     pub substeps: usize,
@@ -183,7 +174,7 @@ impl SolverParams {
                 MatrixPrecision::F64 => Precision::F64,
                 // A direct factor gains little from f32 and loses definiteness to its rounding.
                 MatrixPrecision::Auto
-                    if self.integrator == Integrator::BackwardEuler
+                    if self.integrator.is_dynamic()
                         && self.preconditioner == PreconditionerKind::Amg =>
                 {
                     Precision::F32

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::CHUNK;
 use super::params::SolverParams;
+use super::scheme::Inertial;
 use super::terms::{Elasticity, ExternalForces, HessianShape, Inertia, Term};
 use crate::elastic::ElasticBody;
 use crate::linear::sparse::{BlockCsr, BlockPattern};
@@ -15,15 +16,8 @@ use crate::math::{Mat3, Vec3};
 /// What kind of step.
 #[derive(Clone, Copy, Debug)]
 pub enum StepKind<'a> {
-    /// Backward Euler from (xⁿ, vⁿ) over h seconds.
-    Dynamic {
-        /// Positions at the start of the step.
-        xn: &'a [Vec3],
-        /// Velocities at the start of the step.
-        vn: &'a [Vec3],
-        /// Step length, s.
-        h: f64,
-    },
+    /// A dynamic step of the time scheme (see [`super::scheme`]).
+    Dynamic(Inertial<'a>),
     /// Static equilibrium.
     Static,
 }
@@ -53,7 +47,7 @@ impl StepContext<'_> {
     /// γ of the damping force −γ·K(x)·v in this step (0 when static: no velocity).
     pub fn stiffness_damping(&self) -> f64 {
         match self.kind {
-            StepKind::Dynamic { .. } => self.params.rayleigh_stiffness,
+            StepKind::Dynamic(_) => self.params.rayleigh_stiffness,
             StepKind::Static => 0.0,
         }
     }

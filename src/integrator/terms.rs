@@ -1,6 +1,7 @@
 //! The terms of the incremental potential Newton minimises, behind one [`Term`] trait.
 //!
-//! A backward-Euler step from (xⁿ, vⁿ) over h finds a stationary point of
+//! A dynamic step from (xⁿ, vⁿ) over h (backward Euler here; every scheme of [`super::scheme`]
+//! has the same form with its own x̃, x_still and times) finds a stationary point of
 //!
 //! ```text
 //! Φ(x) = ½‖x − xⁿ − h·vⁿ‖²_M / h² + α‖x − xⁿ‖²_M / (2h)     inertia and mass damping
@@ -98,9 +99,10 @@ pub trait Term: Send {
     }
 }
 
-/// Inertia and mass damping of a backward-Euler step:
-/// `½‖x − xⁿ − h·vⁿ‖²_M / h² + α‖x − xⁿ‖²_M / (2h)`, force `M·((vⁿ − v)/h − α·v)`, Hessian
-/// `(1/h² + α/h)·M`. Absent (zero) in a quasistatic step.
+/// Inertia and mass damping of a dynamic step (see [`super::scheme`]):
+/// `½‖x − x̃‖²_M / (τ_v·τ_a) + α‖x − x_still‖²_M / (2τ_v)`, force `M·((ṽ − v)/τ_a − α·v)`,
+/// Hessian `(1/(τ_v·τ_a) + α/τ_v)·M` (backward Euler: x̃ = xⁿ + h·vⁿ, x_still = xⁿ, ṽ = vⁿ,
+/// τ_v = τ_a = h). Absent (zero) in a quasistatic step.
 #[derive(Debug, Default)]
 pub struct Inertia;
 
@@ -117,34 +119,37 @@ impl Term for Inertia {
         force: &mut [Vec3],
         partials: &mut [f64],
     ) -> f64 {
-        let StepKind::Dynamic { xn, vn, h } = ctx.kind else {
+        let StepKind::Dynamic(step) = ctx.kind else {
             return 0.0;
         };
         let alpha = ctx.params.rayleigh_mass;
         let masses = ctx.body.masses();
+        let (base, tau_a) = (step.base_velocity, step.inertia_time);
         force
             .par_iter_mut()
             .enumerate()
             .with_min_len(CHUNK)
-            .for_each(|(i, f)| *f += masses[i] * ((vn[i] - v[i]) / h - alpha * v[i]));
+            .for_each(|(i, f)| *f += masses[i] * ((base[i] - v[i]) / tau_a - alpha * v[i]));
+        let (predicted, still) = (step.predicted, step.still);
+        let (denominator, tau_v) = (step.inertia_denominator, step.velocity_time);
         ordered_sum(partials, x.len(), |i| {
-            let xhat = xn[i] + h * vn[i];
             let m = masses[i];
-            0.5 * m * (x[i] - xhat).norm_squared() / (h * h)
-                + 0.5 * alpha * m * (x[i] - xn[i]).norm_squared() / h
+            0.5 * m * (x[i] - predicted[i]).norm_squared() / denominator
+                + 0.5 * alpha * m * (x[i] - still[i]).norm_squared() / tau_v
         })
     }
 
     fn hessian_shape(&self, ctx: &StepContext<'_>) -> HessianShape {
         match ctx.kind {
-            StepKind::Dynamic { .. } => HessianShape::LumpedDiagonal,
+            StepKind::Dynamic(_) => HessianShape::LumpedDiagonal,
             StepKind::Static => HessianShape::Zero,
         }
     }
 
     fn add_lumped_diagonal(&self, ctx: &StepContext<'_>, d: &mut [f64]) {
-        if let StepKind::Dynamic { h, .. } = ctx.kind {
-            let scale = 1.0 / (h * h) + ctx.params.rayleigh_mass / h;
+        if let StepKind::Dynamic(step) = ctx.kind {
+            let scale =
+                1.0 / step.inertia_denominator + ctx.params.rayleigh_mass / step.velocity_time;
             for (d, m) in d.iter_mut().zip(ctx.body.masses()) {
                 *d += scale * m;
             }
@@ -268,11 +273,11 @@ impl Elasticity {
     fn damping<'v>(ctx: &StepContext<'_>, v: &'v [Vec3]) -> Damping<'v> {
         let gamma = ctx.stiffness_damping();
         let shift = match (ctx.kind, ctx.params.damping_tangent) {
-            (StepKind::Dynamic { h, .. }, DampingTangent::Shifted) => gamma * h / (h + gamma),
+            (StepKind::Dynamic(step), DampingTangent::Shifted) => step.damping_shift(gamma),
             _ => 0.0,
         };
         let weight = match ctx.kind {
-            StepKind::Dynamic { h, .. } => gamma / h,
+            StepKind::Dynamic(step) => step.damping_weight(gamma),
             StepKind::Static => 0.0,
         };
         Damping {

@@ -128,6 +128,15 @@ impl Scene {
         SolverParams {
             integrator: match s.integrator {
                 IntegratorName::BackwardEuler => Integrator::BackwardEuler,
+                IntegratorName::Bdf2 => Integrator::Bdf2,
+                IntegratorName::Newmark => Integrator::Newmark {
+                    beta: s
+                        .newmark_beta
+                        .unwrap_or(crate::integrator::scheme::NEWMARK_BETA),
+                    gamma: s
+                        .newmark_gamma
+                        .unwrap_or(crate::integrator::scheme::NEWMARK_GAMMA),
+                },
                 IntegratorName::Quasistatic => Integrator::Quasistatic,
             },
             dt: s.dt,

@@ -516,12 +516,26 @@ pub struct InitialSpec {
 #[derive(Clone, Debug, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverSpec {
-    /// "backward-euler" (default) or "quasistatic".
+    /// "backward-euler" (default), "bdf2", "newmark" or "quasistatic".
     pub integrator: IntegratorName,
+    /// Newmark's β (with `integrator = "newmark"`), in [γ/2, 1]. Default 0.25.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "units::optional::<_, units::Ratio>"
+    )]
+    pub newmark_beta: Option<f64>,
+    /// Newmark's γ (with `integrator = "newmark"`), in [0.5, 1]. Default 0.5.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "units::optional::<_, units::Ratio>"
+    )]
+    pub newmark_gamma: Option<f64>,
     /// Seconds per frame. Default 1/30.
     #[serde(deserialize_with = "units::scalar::<_, units::Time>")]
     pub dt: f64,
-    /// Frames (backward Euler) or load steps (quasistatic). Default 60.
+    /// Frames (dynamic) or load steps (quasistatic). Default 60.
     pub frames: usize,
     /// Time steps per frame. Default 1.
     pub substeps: usize,
@@ -598,6 +612,8 @@ impl Default for SolverSpec {
         let p = SolverParams::default();
         SolverSpec {
             integrator: IntegratorName::BackwardEuler,
+            newmark_beta: None,
+            newmark_gamma: None,
             dt: p.dt,
             frames: p.frames,
             substeps: p.substeps,
@@ -632,6 +648,10 @@ pub enum IntegratorName {
     /// Backward Euler.
     #[default]
     BackwardEuler,
+    /// BDF2.
+    Bdf2,
+    /// Newmark.
+    Newmark,
     /// Quasistatic.
     Quasistatic,
 }

@@ -25,6 +25,8 @@ impl Simulation {
             tangled: self.body.tangled_list(),
             unfolding: self.body.unfolding().map(|u| (u.best as u64, u.stalled)),
             inverted_at_end: self.inverted_at_end as u64,
+            history: self.history.saved(),
+            ledger_damping: vectors_out(&self.ledger.damping),
         }
     }
 
@@ -88,10 +90,13 @@ impl Simulation {
             loads: vectors_in(&saved.ledger.1),
             reactions: vectors_in(&saved.ledger.2),
             forces,
+            damping: vectors_in(&saved.ledger_damping),
         };
         self.saved_ledger.clone_from(&self.ledger);
         self.ledger_x.clone_from(&self.state.x);
         self.saved.clone_from(&self.state);
+        self.history.restore(&saved.history);
+        self.saved_history.clone_from(&self.history);
         self.frame = saved.frame;
         self.ramp_frames = Some(saved.ramp_frames);
         self.inverted_at_end = saved.inverted_at_end as usize;

@@ -7,13 +7,14 @@ use crate::math::Vec3;
 
 impl Simulation {
     /// The audit of the substep just solved (from `xn`, `vn` to the state), updating the ledger:
-    /// `elastic` is the solve's elastic energy, `gravity` the step's, `dynamic` h and the
-    /// Rayleigh coefficients (None when quasistatic).
+    /// `elastic` is the solve's elastic energy, `gravity` the step's, `dynamic` whether it was a
+    /// time step (the scheme's, as planned in the history), `rayleigh` (γ, α).
     pub(super) fn audit_substep(
         &mut self,
         elastic: f64,
         gravity: Vec3,
-        dynamic: Option<(f64, f64, f64)>,
+        dynamic: bool,
+        (gamma, alpha): (f64, f64),
     ) -> EnergyAudit {
         let account = self
             .newton
@@ -38,7 +39,7 @@ impl Simulation {
                 Some(_) => self.newton.potential().elasticity.energy(),
                 None => elastic,
             },
-            dynamic,
+            dynamic: dynamic.then(|| (self.history.inertial(&self.xn, &self.vn), gamma, alpha)),
             contact: self
                 .newton
                 .potential()

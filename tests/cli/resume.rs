@@ -428,3 +428,75 @@ fn sigterm_inside_a_long_frame_stops_it_and_drops_it() {
     let rows = std::fs::read_to_string(run.join("steps.csv")).unwrap();
     assert_eq!(rows.lines().count(), 2, "header and frame 0: {rows}");
 }
+
+/// Each time scheme keeps its history in the checkpoint (BDF2 the step before, Newmark the
+/// acceleration, the audit's damping forces): a block dropped on the ground, stopped after
+/// frame 4 (in contact) and resumed, writes the bytes of a run never stopped.
+#[test]
+fn a_resumed_run_of_every_time_scheme_writes_the_bytes_of_one_never_stopped() {
+    for scheme in ["bdf2", "newmark"] {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("s.toml"),
+            format!(
+                r#"
+                gravity = [0.0, -9.81, 0.0]
+                [mesh]
+                generator = {{ box = {{ min = [0, 0.02, 0], max = [0.2, 0.12, 0.2], cells = [3, 2, 3] }} }}
+                [material]
+                youngs_modulus = 1e5
+                density = 1000
+                [[obstacle]]
+                plane = {{ point = [0, 0, 0], normal = [0, 1, 0] }}
+                friction = 0.3
+                [initial]
+                velocity = [0.3, 0.0, 0.0]
+                [solver]
+                integrator = "{scheme}"
+                dt = 0.02
+                frames = 14
+                rayleigh_stiffness = 0.002
+                "#
+            ),
+        )
+        .unwrap();
+        let args = ["run", "s.toml", "--deterministic", "--no-pictures", "-q"];
+        let whole = tetsim(dir.path(), &[&args[..], &["--out", "whole"]].concat());
+        assert!(whole.status.success(), "{scheme}: {}", stderr(&whole));
+        let part = tetsim(
+            dir.path(),
+            &[&args[..], &["--frames", "4", "--out", "part"]].concat(),
+        );
+        assert!(part.status.success(), "{scheme}: {}", stderr(&part));
+        let rest = tetsim(
+            dir.path(),
+            &["run", "--resume", "part", "--frames", "14", "-q"],
+        );
+        assert!(rest.status.success(), "{scheme}: {}", stderr(&rest));
+        // The stop falls inside the contact: the block is on the ground at frame 4.
+        let steps = std::fs::read_to_string(dir.path().join("whole/steps.csv")).unwrap();
+        let header: Vec<&str> = steps.lines().next().unwrap().split(',').collect();
+        let column = header.iter().position(|h| *h == "contacts").unwrap();
+        let contacts: u64 = steps
+            .lines()
+            .nth(5)
+            .unwrap()
+            .split(',')
+            .nth(column)
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(contacts > 0, "{scheme}: no contact at frame 4\n{steps}");
+        let (a, b) = (
+            results(&dir.path().join("whole")),
+            results(&dir.path().join("part")),
+        );
+        assert_eq!(a.len(), b.len(), "{scheme}");
+        for ((name, x), (_, y)) in a.iter().zip(&b) {
+            assert!(
+                x == y,
+                "{scheme}: {name} differs from the run never stopped"
+            );
+        }
+    }
+}

@@ -40,6 +40,7 @@ impl Validator<'_> {
                 );
             }
         }
+        self.newmark(s);
         self.non_negative(&at("rayleigh_stiffness"), s.rayleigh_stiffness, "s");
         self.non_negative(&at("rayleigh_mass"), s.rayleigh_mass, "1/s");
         self.damping(s);
@@ -148,6 +149,48 @@ impl Validator<'_> {
             if !value.is_finite() {
                 self.fail(&at(k), format!("must be finite (degrees), got {value}"));
             }
+        }
+    }
+
+    /// Newmark's β and γ: only with `integrator = "newmark"`, and in the unconditionally stable
+    /// range γ ≥ ½, β ≥ γ/2 (β > 0 also makes the step an incremental potential).
+    fn newmark(&mut self, s: &SolverSpec) {
+        let at = |k: &'static str| key!["solver", k];
+        let newmark = s.integrator == crate::scene::IntegratorName::Newmark;
+        for (k, value) in [
+            ("newmark_beta", s.newmark_beta),
+            ("newmark_gamma", s.newmark_gamma),
+        ] {
+            if value.is_some() && !newmark {
+                self.fail(
+                    &at(k),
+                    "applies only to integrator = \"newmark\"; set that too, or remove this key",
+                );
+            }
+        }
+        let gamma = s
+            .newmark_gamma
+            .unwrap_or(crate::integrator::scheme::NEWMARK_GAMMA);
+        let beta = s
+            .newmark_beta
+            .unwrap_or(crate::integrator::scheme::NEWMARK_BETA);
+        if !(0.5..=1.0).contains(&gamma) {
+            self.fail(
+                &at("newmark_gamma"),
+                format!(
+                    "must be between 0.5 and 1 (below 0.5 the scheme amplifies every vibration; \
+                     0.5 is second order and keeps energy), got {gamma}"
+                ),
+            );
+        } else if !(beta >= 0.5 * gamma && beta <= 1.0) {
+            self.fail(
+                &at("newmark_beta"),
+                format!(
+                    "must be between γ/2 = {} and 1 for a step that is stable at any dt \
+                     (0.25 with γ = 0.5 is the average-acceleration rule), got {beta}",
+                    0.5 * gamma
+                ),
+            );
         }
     }
 }

@@ -46,6 +46,24 @@ fn every_bad_value_is_named_at_its_key_line() {
             "-0.5",
         ),
         (
+            "[solver]\nnewmark_beta = 0.3\n",
+            2,
+            "solver.newmark_beta: ",
+            "only to integrator = \"newmark\"",
+        ),
+        (
+            "[solver]\nintegrator = \"newmark\"\nnewmark_gamma = 0.4\n",
+            3,
+            "solver.newmark_gamma: ",
+            "between 0.5 and 1",
+        ),
+        (
+            "[solver]\nintegrator = \"newmark\"\nnewmark_gamma = 0.6\nnewmark_beta = 0.2\n",
+            4,
+            "solver.newmark_beta: ",
+            "between γ/2 = 0.3 and 1",
+        ),
+        (
             "[solver]\nrayleigh_stiffness = inf\n",
             2,
             "solver.rayleigh_stiffness: ",
