@@ -108,6 +108,54 @@ fn ranks_give_the_serial_answer_and_files() {
     }
 }
 
+/// BDF2 and Newmark keep their history on every rank: 2 ranks give the serial answer.
+#[test]
+fn every_time_scheme_gives_the_serial_answer_on_two_ranks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(scene()).unwrap();
+    for scheme in ["bdf2", "newmark"] {
+        let path = tmp.path().join(format!("{scheme}.toml"));
+        let with = text.replace(
+            "[solver]\n",
+            &format!("[solver]\nintegrator = \"{scheme}\"\n"),
+        );
+        assert_ne!(with, text);
+        std::fs::write(&path, with).unwrap();
+        let serial = tmp.path().join(format!("{scheme}-serial"));
+        let out = run(None, &path, &serial);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let dir = tmp.path().join(format!("{scheme}-ranks"));
+        let out = run(Some(2), &path, &dir);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let rest = positions(&serial, 0);
+        let moved = rest
+            .iter()
+            .zip(&positions(&serial, 4))
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        for frame in 1..=4 {
+            let (a, b) = (positions(&serial, frame), positions(&dir, frame));
+            let worst = a
+                .iter()
+                .zip(&b)
+                .map(|(a, b)| (a - b).norm())
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= 1e-5 * moved,
+                "{scheme}, frame {frame}: {worst:e} m apart (moved {moved:e} m)"
+            );
+        }
+    }
+}
+
 #[test]
 fn obstacles_are_refused_under_mpirun() {
     let tmp = tempfile::tempdir().unwrap();

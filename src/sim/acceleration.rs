@@ -20,18 +20,36 @@ impl Simulation {
         };
         let mut forces = vec![Vec3::zeros(); n];
         self.body.add_forces(&self.xn, &mut forces);
-        if let Some(ranks) = self.newton.ranks() {
-            crate::parallel::complete_vectors(&**ranks, &mut forces);
-        }
         let mut loads = vec![Vec3::zeros(); n];
         self.boundary
             .external_forces(&start, self.body.masses(), &mut loads);
         let alpha = self.params.rayleigh_mass;
-        (0..n)
+        let masses = self.body.masses();
+        for i in 0..n {
+            forces[i] += loads[i] - alpha * masses[i] * self.vn[i];
+        }
+        // Distributed: the owners add up the ranks' shares (a ghost has no mass) and hand the
+        // acceleration back to the ghosts, so that every copy of a vertex steps alike.
+        let ranks = self.newton.ranks();
+        if let Some(ranks) = ranks {
+            crate::parallel::complete_vectors(&**ranks, &mut forces);
+        }
+        let mut a: Vec<Vec3> = (0..n)
             .map(|i| {
-                let m = self.body.masses()[i];
-                ((forces[i] + loads[i]) / m - alpha * self.vn[i]).component_mul(&self.free[i])
+                if masses[i] > 0.0 {
+                    (forces[i] / masses[i]).component_mul(&self.free[i])
+                } else {
+                    Vec3::zeros()
+                }
             })
-            .collect()
+            .collect();
+        if let Some(ranks) = ranks {
+            let mut flat: Vec<f64> = a.iter().flat_map(|v| [v.x, v.y, v.z]).collect();
+            ranks.share(&mut flat, 3);
+            for (v, f) in a.iter_mut().zip(flat.chunks_exact(3)) {
+                *v = Vec3::new(f[0], f[1], f[2]);
+            }
+        }
+        a
     }
 }
