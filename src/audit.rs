@@ -97,6 +97,9 @@ pub struct Ledger {
     /// The damping force's magnitude γ·K·v + α·M·v at the current state, N, kept for schemes
     /// that balance the forces at both ends of a step (empty: zero).
     pub damping: Vec<Vec3>,
+    /// The energy of the terms a library user added ([`crate::Simulation::add_term`]) at the
+    /// current state, J.
+    pub added: f64,
 }
 
 /// Everything one step's audit reads. Slices are per vertex.
@@ -125,6 +128,8 @@ pub struct StepRecord<'a> {
     pub residual: &'a [Vec3],
     /// E at the end, J.
     pub elastic: f64,
+    /// The energy of added terms at the end, J: stored energy beside E.
+    pub added: f64,
     /// The step as its time scheme made it, and the Rayleigh coefficients γ (s), α (1/s); None
     /// when quasistatic.
     pub dynamic: Option<(crate::integrator::Inertial<'a>, f64, f64)>,
@@ -239,6 +244,15 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
         }
     }
     let contact = r.contact.map(|(_, c)| c).unwrap_or_default();
+    let (mut stored_end, mut stored_start) = (
+        r.elastic + contact.barrier_end,
+        ledger.elastic + contact.barrier_start,
+    );
+    if r.added != 0.0 || ledger.added != 0.0 {
+        stored_end += r.added;
+        stored_start += ledger.added;
+    }
+    ledger.added = r.added;
     let sums = [
         load_work + contact.friction_work,
         boundary_work + contact.obstacle_work,
@@ -255,8 +269,8 @@ pub fn audit_sums(r: &StepRecord<'_>, ledger: &mut Ledger) -> AuditSums {
             } else {
                 contact.curvature
             },
-        r.elastic + contact.barrier_end,
-        ledger.elastic + contact.barrier_start,
+        stored_end,
+        stored_start,
         if quasistatic { 1.0 } else { 0.0 },
         scheme_allowance,
         trapezoidal,

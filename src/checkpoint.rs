@@ -99,6 +99,8 @@ pub struct SimulationState {
     pub history: crate::integrator::scheme::SavedHistory,
     /// The energy audit's damping forces at the state (see [`crate::audit::Ledger::damping`]).
     pub ledger_damping: Vec<[f64; 3]>,
+    /// The energy of added terms at the state (see [`crate::audit::Ledger::added`]).
+    pub ledger_added: f64,
 }
 
 /// One written frame: (frame, time, [(file, SHA-256)]).

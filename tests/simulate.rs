@@ -11,6 +11,9 @@ mod analyses;
 #[path = "simulate/schemes.rs"]
 mod schemes;
 
+#[path = "simulate/added_term.rs"]
+mod added_term;
+
 use common::{Collapse, carved_ball, rigid_distance};
 
 use std::path::Path;
@@ -1340,6 +1343,7 @@ fn energy_audit_closes_and_flags_injection() {
                 kv: newton.stiffness_velocity(),
                 residual: newton.residual(),
                 elastic: info.elastic_energy,
+                added: 0.0,
                 dynamic: Some((step.inertial(), 0.0, 0.0)),
                 contact: None,
             },

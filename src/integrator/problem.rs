@@ -187,6 +187,13 @@ impl IncrementalPotential {
         names
     }
 
+    /// The energy of the terms added after the built-in ones and contact (see
+    /// [`crate::Simulation::add_term`]) at the last evaluation, J.
+    pub fn added_energy(&self) -> f64 {
+        let built_in = 3 + usize::from(self.contact.is_some());
+        self.energies.iter().skip(built_in).sum()
+    }
+
     /// The energy of each term at the last evaluation, in term order, J.
     pub fn energies(&self) -> &[f64] {
         &self.energies

@@ -27,6 +27,7 @@ impl Simulation {
             inverted_at_end: self.inverted_at_end as u64,
             history: self.history.saved(),
             ledger_damping: vectors_out(&self.ledger.damping),
+            ledger_added: self.ledger.added,
         }
     }
 
@@ -91,6 +92,7 @@ impl Simulation {
             reactions: vectors_in(&saved.ledger.2),
             forces,
             damping: vectors_in(&saved.ledger_damping),
+            added: saved.ledger_added,
         };
         self.saved_ledger.clone_from(&self.ledger);
         self.ledger_x.clone_from(&self.state.x);

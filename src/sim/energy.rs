@@ -39,6 +39,7 @@ impl Simulation {
                 Some(_) => self.newton.potential().elasticity.energy(),
                 None => elastic,
             },
+            added: self.newton.potential().added_energy(),
             dynamic: dynamic.then(|| (self.history.inertial(&self.xn, &self.vn), gamma, alpha)),
             contact: self
                 .newton
