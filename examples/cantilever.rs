@@ -2,18 +2,21 @@
 //! `cargo run --release --example cantilever` (from the repository root).
 
 use tetsim::output::Recorder;
+use tetsim::runner::Runner;
 use tetsim::{Scene, Simulation};
 
 fn main() -> Result<(), tetsim::Error> {
     let mut scene = Scene::load("scenes/cantilever.toml".as_ref())?;
     scene.solver.frames = 10;
     let mut sim = Simulation::from_scene(&scene)?;
-    let mut recorder = Recorder::create("out/example".as_ref(), &sim.body, true)?;
+    let recorder = Recorder::create("out/example".as_ref(), &sim.body, true)?;
+    let mut runner = Runner::new(recorder);
     // Frame 0, then every frame: Newton iterations, CG iterations, residual, min J …
-    sim.run_with(&mut recorder, |_, stats| {
+    let ending = runner.run(&mut sim, |_, stats| {
         println!(
             "frame {}: {} Newton, {} CG",
             stats.frame, stats.newton_iterations, stats.cg_iterations
         )
-    })
+    })?;
+    runner.finish(&scene, &sim, &ending)
 }

@@ -127,9 +127,13 @@ class Simulation:
         frame first), frames.pvd, surface_NNNN.obj, steps.csv, timings.csv, manifest.json.
         deterministic=True writes steps.csv's wall_seconds as 0 (like --deterministic).
 
+        A checkpoint.bin after every frame, as the command line writes: `tetsim run --resume
+        out_dir --frames N` goes on with the run (with the scene's own motions and loads: steering
+        done from Python between steps is not in the scene).
+
         Returns the step() dicts of the frames run. Ctrl-C stops the frame being computed within
         a Newton iteration (raising KeyboardInterrupt): the files end at the last complete frame,
-        every one valid, and the manifest says so.
+        every one valid, and the manifest's status says "interrupted", as the command line's.
         """
 
     @property

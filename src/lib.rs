@@ -121,6 +121,7 @@ pub mod progress;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod resources;
+pub mod runner;
 pub mod scene;
 pub mod sim;
 

@@ -14,6 +14,7 @@
 //! ```
 
 mod acceleration;
+mod added;
 mod checkpoint;
 mod contact;
 mod control;
@@ -232,55 +233,6 @@ impl Simulation {
             .record_constrained_forces(!monitors.reactions.is_empty());
         self.monitors = monitors;
         self
-    }
-
-    /// Add a term to the incremental potential every step minimises, after the built-in ones
-    /// and contact: a spring, a pressure, an energy of the caller's own (see
-    /// [`crate::integrator::Term`] for what a term gives: its energy, forces and Hessian). Its
-    /// energy counts as stored energy in the energy audit. Not under MPI: the ranks' parts would
-    /// not have it.
-    pub fn add_term(&mut self, term: Box<dyn crate::integrator::Term>) -> Result<()> {
-        if self.driver.is_some() || self.newton.ranks().is_some() {
-            return Err(Error::parameter(
-                "add_term",
-                "a distributed simulation takes no added terms",
-            ));
-        }
-        self.newton.potential_mut().extra.push(term);
-        self.ledger.added = self.added_energy_now();
-        self.saved_ledger.added = self.ledger.added;
-        Ok(())
-    }
-
-    /// The added terms' energy at the current state (for the audit's ledger), J.
-    fn added_energy_now(&mut self) -> f64 {
-        let potential = self.newton.potential_mut();
-        if potential.extra.is_empty() {
-            return 0.0;
-        }
-        let n = self.body.vertex_count();
-        let ctx = StepContext {
-            body: &self.body,
-            kind: StepKind::Static,
-            f_ext: &self.f_ext,
-            free: &self.free,
-            params: &self.params,
-        };
-        let mut scratch = vec![Vec3::zeros(); n];
-        let mut partials = vec![0.0; n.div_ceil(crate::integrator::CHUNK).max(1)];
-        potential
-            .extra
-            .iter_mut()
-            .map(|t| {
-                t.evaluate(
-                    &ctx,
-                    &self.state.x,
-                    &self.state.v,
-                    &mut scratch,
-                    &mut partials,
-                )
-            })
-            .sum()
     }
 
     /// The probes and named constraints this simulation records.
@@ -535,34 +487,6 @@ impl Simulation {
         self.ledger_x.clone_from(&self.state.x);
         self.frame = frame;
         Ok(stats)
-    }
-
-    /// Run every remaining frame, writing each into `recorder` (frame 0 first, when the recorder
-    /// has written nothing yet) and handing it to `on_frame`. Stops at the first error (a frame
-    /// that failed under the failure policy, or a file that could not be written); the frames
-    /// written so far stay valid.
-    pub fn run_with(
-        &mut self,
-        recorder: &mut crate::output::Recorder,
-        mut on_frame: impl FnMut(&Simulation, &StepStats),
-    ) -> Result<()> {
-        if recorder.frame_files().is_empty() {
-            recorder.write_frame(self, None)?;
-        }
-        while !self.is_finished() {
-            let stats = self.step()?;
-            recorder.write_frame(self, Some(&stats))?;
-            on_frame(self, &stats);
-        }
-        Ok(())
-    }
-
-    /// Run every remaining frame into `recorder` (see [`Simulation::run_with`]) and return the
-    /// frames' statistics.
-    pub fn run(&mut self, recorder: &mut crate::output::Recorder) -> Result<Vec<StepStats>> {
-        let mut all = Vec::new();
-        self.run_with(recorder, |_, stats| all.push(stats.clone()))?;
-        Ok(all)
     }
 
     /// Undo a frame's attempt: the state, the audit's ledger and the scheme's history as they

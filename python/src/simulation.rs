@@ -12,6 +12,7 @@ use tetsim::boundary::Motion;
 use tetsim::integrator::StepStats;
 use tetsim::math::Vec3;
 use tetsim::output::{Cell, Recorder, step_columns};
+use tetsim::runner::{Ending, Runner};
 
 use crate::arrays;
 use crate::errors::{LibResult, argument, from_lib};
@@ -108,39 +109,34 @@ impl Simulation {
             .py()?
             .deterministic(scene.output.deterministic);
         recorder.write_frame(&*sim, None).py()?;
-        let mut rows = Vec::new();
-        let mut failure = None;
-        let mut interrupted = None;
-        while !sim.is_finished() {
-            let (sim, recorder) = (&mut *sim, &mut recorder);
-            let (done, signal) = interruptible(py, &flag, || -> tetsim::Result<StepStats> {
-                let stats = sim.step()?;
-                recorder.write_frame(sim, Some(&stats))?;
-                Ok(stats)
-            });
-            if signal.is_some() {
-                interrupted = signal;
-                break;
-            }
-            match done {
-                Ok(stats) => rows.push(columns(py, &stats, sim.contact_setup().is_some())?),
-                Err(error @ tetsim::Error::Solve { .. }) => {
-                    failure = Some(error);
-                    break;
-                }
-                Err(error) => return Err(error).py(),
-            }
-            if let Err(e) = py.check_signals() {
-                interrupted = Some(e);
-                break;
-            }
-        }
-        let status = match (&failure, &interrupted) {
-            (Some(e), _) => format!("stopped: {e}"),
-            (None, Some(_)) => format!("stopped: interrupted after frame {}", sim.frame()),
-            (None, None) => "complete".to_string(),
+        // The same loop as the command line's: a checkpoint after every frame, so that
+        // `tetsim run --resume OUT` goes on with the run.
+        let mut record = tetsim::runner::fresh_record(&scene, &scene.base_dir, &out);
+        record.inputs = tetsim::manifest::input_hashes(&scene).py()?.to_string();
+        let mut runner = Runner::new(recorder)
+            .with_checkpoint(record)
+            .with_stop(Arc::clone(&flag));
+        runner.save(&*sim).py()?;
+        let mut all = Vec::new();
+        let (ending, signal) = interruptible(py, &flag, || {
+            runner.run(&mut *sim, |_, stats| all.push(stats.clone()))
+        });
+        let ending = ending.py()?;
+        runner.finish(&scene, &*sim, &ending).py()?;
+        let contact = sim.contact_setup().is_some();
+        let rows = all
+            .iter()
+            .map(|stats| columns(py, stats, contact))
+            .collect::<PyResult<Vec<_>>>()?;
+        let interrupted = match (&ending, signal) {
+            (_, Some(e)) => Some(e),
+            (Ending::Interrupted, None) => py.check_signals().err(),
+            _ => None,
         };
-        recorder.write_manifest(&scene, &*sim, &status).py()?;
+        let failure = match ending {
+            Ending::Stopped(error) => Some(error),
+            _ => None,
+        };
         if let Some(e) = interrupted {
             return Err(e);
         }

@@ -20,6 +20,7 @@ use tetsim::diagnose::{RunSummary, folded_finding, plausibility_warnings};
 use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
 use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
+use tetsim::runner::{Ending, Runner};
 use tetsim::{Scene, Simulation, Vec3};
 
 /// Arguments of `tetsim run`.
@@ -96,7 +97,7 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     for w in &warnings {
         log::warn!("{w}");
     }
-    let mut recorder = match &checkpoint {
+    let recorder = match &checkpoint {
         Some(c) => {
             sim.restore(&c.simulation)?;
             Recorder::resume(&out, &sim, scene.output.obj, &c.recorder)?
@@ -117,19 +118,13 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     }
     .deterministic(scene.output.deterministic)
     .named(&record.out);
-    let save = |sim: &Simulation, recorder: &Recorder| -> anyhow::Result<()> {
-        let checkpoint = Checkpoint {
-            run: record.clone(),
-            simulation: sim.snapshot(),
-            recorder: recorder.snapshot(),
-        };
-        checkpoint
-            .write(&out.join(FILE_NAME))
-            .context("writing the checkpoint")
-    };
+    let mut runner = Runner::new(recorder)
+        .with_checkpoint(record.clone())
+        .with_stop(Arc::clone(&stop.flag));
     if checkpoint.is_none() {
-        save(&sim, &recorder)?;
+        runner.save(&sim).context("writing the checkpoint")?;
     }
+    let recorder = &mut runner.recorder;
     recorder.write_manifest(&scene, &sim, "running")?;
 
     let first = sim.frame();
@@ -146,24 +141,8 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     let (lo, hi) = sim.body.mesh.bounding_box();
     let body_size = (hi - lo).norm();
     let mut summary = RunSummary::default();
-    let mut failure = None;
-    while !sim.is_finished() && !stop.flag.load(Ordering::SeqCst) {
-        let stats = match sim.step() {
-            Ok(stats) => stats,
-            // Stop, but keep what the run produced: frames are on disk; draw them too.
-            Err(error @ tetsim::Error::Solve { .. }) => {
-                failure = Some(error);
-                break;
-            }
-            // A signal: the frame is dropped, the run ends at the last complete one.
-            Err(tetsim::Error::Interrupted { .. }) => break,
-            Err(error) => return Err(error.into()),
-        };
-        recorder
-            .write_frame(&sim, Some(&stats))
-            .with_context(|| format!("writing frame {}", stats.frame))?;
-        save(&sim, &recorder)?;
-        summary.add(&stats, sim.params.substeps);
+    let ending = runner.run(&mut sim, |sim, stats| {
+        summary.add(stats, sim.params.substeps);
         if stats.frame == 1 {
             // How far a vertex moved apart from the body's mean motion: a body launched at
             // 1e4 m/s moves far, rigidly, and that is no sign of a wrong unit.
@@ -216,14 +195,15 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
             min_j: stats.min_j,
             wall_seconds: stats.wall_seconds,
         });
-    }
+    })?;
     let signal = stop.which.load(Ordering::SeqCst);
-    let interrupted = !sim.is_finished() && failure.is_none() && signal != 0;
-    let status = match (&failure, interrupted) {
-        (Some(e), _) => format!("stopped: {e}"),
-        (None, true) => "interrupted".to_string(),
-        (None, false) => "complete".to_string(),
+    let interrupted = matches!(ending, Ending::Interrupted) && signal != 0;
+    let status = ending.status();
+    let failure = match ending {
+        Ending::Stopped(error) => Some(error),
+        _ => None,
     };
+    let recorder = &mut runner.recorder;
     // The manifest first: whatever happens to the pictures, the run's record is written.
     recorder.write_manifest(&scene, &sim, &status)?;
 
@@ -334,19 +314,7 @@ fn fresh(args: &RunArgs) -> anyhow::Result<(Scene, RunRecord, Option<Checkpoint>
         Some(path) => path.parent().map(Path::to_path_buf).unwrap_or_default(),
         None => PathBuf::from("."),
     };
-    let base = std::path::absolute(&base).unwrap_or(base);
-    let record = RunRecord {
-        scene_path: scene.path.display().to_string(),
-        scene_base: base.display().to_string(),
-        scene_source: scene.source().to_string(),
-        inputs: String::new(),
-        out: out.display().to_string(),
-        frames: scene.solver.frames,
-        force: scene.mesh.force,
-        pictures: scene.output.pictures,
-        plots: scene.output.plots,
-        deterministic: scene.output.deterministic,
-    };
+    let record = tetsim::runner::fresh_record(&scene, &base, &out);
     Ok((scene, record, None))
 }
 
