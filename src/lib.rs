@@ -47,8 +47,9 @@
 //!   strategies (matrix-free, multigrid, Cholesky) on any [`linear::System`], and their parts
 //!   ([`linear::cg`], [`linear::sparse`] block matrices, [`linear::amg`]).
 //! - [`integrator`]: one step as Newton on the incremental potential (SPEC §4): settings, the
-//!   potential's [`integrator::Term`]s (inertia, elasticity, loads; contact joins them), Newton,
-//!   the line search, the tangent policy, statistics.
+//!   potential's [`integrator::Term`]s (inertia, elasticity, loads; contact and a user's own
+//!   terms join them), the time schemes ([`integrator::scheme`]: backward Euler, BDF2, Newmark),
+//!   Newton, the line search, the tangent policy, statistics.
 //! - [`contact`]: Incremental Potential Contact: distances, barrier, CCD, broad phase, contact
 //!   surfaces, rigid obstacles, friction, and the contact term of the incremental potential.
 //! - [`audit`]: the energy audit of every step (steps.csv, run summary).
@@ -57,6 +58,8 @@
 //!   a damping ratio.
 //! - [`scene`]: the TOML scene contract (SPEC §10).
 //! - [`io`]: mesh files in and out (Gmsh, TetGen, VTK/VTU, MEDIT, OBJ), VTU frames, PVD.
+//! - [`runner`]: the frame loop the command line and Python share: frames, checkpoints, stop flag,
+//!   the run's ending.
 //! - [`output`]: the run's output files (frames, collection, surfaces, steps.csv).
 //! - [`manifest`]: `manifest.json`: version, input hashes, resolved parameters, output hashes.
 //! - [`checkpoint`]: `checkpoint.bin`: what a stopped run needs to go on with the same bytes.

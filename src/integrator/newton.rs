@@ -216,16 +216,10 @@ impl Newton {
         };
         self.timings = Timings::default();
         self.collision_limited = false;
-        // With contact the first residual can be small (a body coming to rest on an obstacle)
-        // while the barrier's stiffness puts rounding far above a fraction of it: the tolerance
-        // then also counts against the loads (‖f_ext‖, the weight), as users of the peers
-        // expect. Without contact the floor is as it always was.
+        // A term may raise the floor to what its forces can resolve (see `Term::residual_floor`).
         let mut floor = absolute_floor(ctx, x, self.ranks.as_deref());
         let drive = self.drive(ctx);
-        if self.potential.contact.is_some() {
-            let loads = cg::dot(ctx.f_ext, ctx.f_ext, &mut self.partials).sqrt();
-            floor = floor.max(params.newton_tolerance * loads);
-        }
+        floor = floor.max(self.potential.residual_floor(ctx));
         // Before any iteration the floor may not exceed the tolerance on what drives the step
         // (loads, momentum): a stiffness-scaled floor (λ + 2μ grows without bound as ν → ½)
         // would otherwise swallow an unbalanced load and declare the unmoved body converged.
@@ -236,10 +230,8 @@ impl Newton {
         };
         self.policy.begin_step(ctx);
         let mut eval = self.evaluate(ctx, x, v);
-        // IPC's balanced barrier stiffness, once a step (see `ContactTerm::balance_stiffness`).
-        if let Some(contact) = &mut self.potential.contact
-            && contact.balance_stiffness(&self.rhs, ctx.free)
-        {
+        // A term that adjusts itself to the first iterate (contact's barrier stiffness).
+        if self.potential.after_first_evaluation(ctx, &self.rhs) {
             eval = self.evaluate(ctx, x, v);
         }
         let first = eval.residual;
@@ -322,21 +314,13 @@ impl Newton {
                 self.potential.use_exact(false);
                 self.solve_linear(ctx, &cg_params, &mut info);
             }
-            // With contact in a dynamic step, IPC's stopping rule too: the Newton step is below
-            // ε_d·h, a velocity change of 1e-5 bounding-box diagonals per second (Li et al. 2020).
-            // Against a stiff barrier the residual cannot fall below the rounding of the contact
-            // forces (two cubes meeting at 0.45 m/s stalled at relative residual 1e-6 for 200
-            // iterations) while the step it asks for is already nothing.
-            if let (Some(contact), StepKind::Dynamic(step)) = (&self.potential.contact, &ctx.kind) {
-                let limit = 1e-5 * contact.bounding_box_diagonal() * step.h;
-                let largest = self.dx.iter().map(|d| d.amax()).fold(0.0, f64::max);
-                // Only near convergence: a state pressed deep into the barrier also asks for a tiny step
-                // (its Hessian is huge), with forces far from balanced.
-                let close = eval.residual <= 1e3 * params.newton_tolerance * first;
-                if contact.active_pairs() > 0 && largest <= limit && close {
-                    info.converged = true;
-                    break;
-                }
+            // A term may find the step already too small to matter (contact's IPC rule), but
+            // only near convergence: a state pressed deep into a barrier also asks for a tiny
+            // step (its Hessian is huge), with forces far from balanced.
+            let close = eval.residual <= 1e3 * params.newton_tolerance * first;
+            if close && self.potential.step_converged(ctx, &self.dx) {
+                info.converged = true;
+                break;
             }
             let mut searched = self.line_search(ctx, x, v, eval, &mut info);
             if searched.is_none() && exact {

@@ -175,6 +175,29 @@ impl IncrementalPotential {
             .fold(1.0, f64::min)
     }
 
+    /// The largest residual floor a term asks for (see [`Term::residual_floor`]), N.
+    pub fn residual_floor(&mut self, ctx: &StepContext<'_>) -> f64 {
+        self.terms_mut()
+            .map(|t| t.residual_floor(ctx))
+            .fold(0.0, f64::max)
+    }
+
+    /// Every term's [`Term::after_first_evaluation`]: whether one of them asks for another
+    /// evaluation.
+    pub fn after_first_evaluation(&mut self, ctx: &StepContext<'_>, force: &[Vec3]) -> bool {
+        let mut again = false;
+        for term in self.terms_mut() {
+            again |= term.after_first_evaluation(ctx, force);
+        }
+        again
+    }
+
+    /// Whether a term finds the Newton step dx small enough to stop (see
+    /// [`Term::step_converged`]).
+    pub fn step_converged(&mut self, ctx: &StepContext<'_>, dx: &[Vec3]) -> bool {
+        self.terms_mut().any(|t| t.step_converged(ctx, dx))
+    }
+
     /// Every term's name, in order.
     pub fn term_names(&self) -> Vec<&'static str> {
         let mut names = vec![

@@ -171,8 +171,8 @@ impl Inertial<'_> {
         gamma / self.velocity_time
     }
 
-    /// The first-order shift θ of the damping tangent: (1 + γ/τ_v)·K(x) + γ·(∂K/∂x)[v] =
-    /// (1 + γ/τ_v)·K(x + θ·v) + O(θ²) with θ = γτ_v/(τ_v + γ).
+    /// The first-order shift θ of the damping tangent: `(1 + γ/τ_v)·K(x) + γ·(∂K/∂x)[v] =
+    /// (1 + γ/τ_v)·K(x + θ·v) + O(θ²)` with θ = γτ_v/(τ_v + γ).
     pub fn damping_shift(&self, gamma: f64) -> f64 {
         gamma * self.velocity_time / (self.velocity_time + gamma)
     }

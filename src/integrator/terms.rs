@@ -97,6 +97,27 @@ pub trait Term: Send {
     fn max_step(&mut self, _ctx: &StepContext<'_>, _x: &[Vec3], _dx: &[Vec3]) -> f64 {
         1.0
     }
+
+    /// A residual (N) below which this term's forces cannot be resolved, so that Newton's
+    /// absolute floor is raised to it (contact: the tolerance times the loads, a stiff barrier's
+    /// rounding being far above a fraction of a small first residual). Default 0.
+    fn residual_floor(&mut self, _ctx: &StepContext<'_>) -> f64 {
+        0.0
+    }
+
+    /// Called once a step after the first evaluation, with the total force there: return true
+    /// when the term changed itself and the iterate must be evaluated again (contact: IPC's
+    /// balanced barrier stiffness). Default: nothing.
+    fn after_first_evaluation(&mut self, _ctx: &StepContext<'_>, _force: &[Vec3]) -> bool {
+        false
+    }
+
+    /// Whether the Newton step dx is already too small to matter for this term, near
+    /// convergence (contact: IPC's rule, a step below 1e-5 bounding-box diagonals per second):
+    /// Newton then stops. Default false.
+    fn step_converged(&self, _ctx: &StepContext<'_>, _dx: &[Vec3]) -> bool {
+        false
+    }
 }
 
 /// Inertia and mass damping of a dynamic step (see [`super::scheme`]):

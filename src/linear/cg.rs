@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::math::{Mat3, Vec3};
 
 /// Entries per parallel chunk of the vector kernels; fixed so reductions are deterministic.
-const CHUNK: usize = 2048;
+pub(crate) const CHUNK: usize = 2048;
 
 /// A linear operator on vertex vectors (3 DOFs per vertex).
 pub trait LinearOperator {
