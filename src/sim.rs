@@ -31,7 +31,7 @@ use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
 use crate::integrator::scheme::History;
 use crate::integrator::{
-    Integrator, Newton, OnFailure, SolverParams, StepContext, StepKind, StepStats,
+    Integrator, Newton, OnFailure, SolverParams, StepContext, StepKind, StepStart, StepStats,
 };
 use crate::math::Vec3;
 use crate::mesh::ordering::Renumbering;
@@ -538,26 +538,25 @@ impl Simulation {
                 .prescribe(&clock, &self.initial, &mut self.state.x);
             self.boundary
                 .external_forces(&clock, self.body.masses(), &mut self.f_ext);
-            if let Some(contact) = &mut self.newton.potential_mut().contact {
-                // The guess no further than CCD finds free, carried along by moving obstacles.
-                let step = if kind_is_dynamic { h } else { 1.0 };
-                let start = match clock {
-                    Clock::Time { time, run_duration } => Clock::Time {
-                        time: time - h,
-                        run_duration,
-                    },
-                    Clock::LoadFactor(s) => {
-                        Clock::LoadFactor(s - 1.0 / (substeps * ramp_frames) as f64)
-                    }
-                };
-                contact.begin_step(
-                    &self.xn,
-                    step,
-                    |duration| start.ramp(duration),
-                    |duration| clock.ramp(duration),
-                );
-                contact.prepare_guess(&self.xn, &mut self.state.x, &self.free);
-            }
+            let start_clock = match clock {
+                Clock::Time { time, run_duration } => Clock::Time {
+                    time: time - h,
+                    run_duration,
+                },
+                Clock::LoadFactor(s) => {
+                    Clock::LoadFactor(s - 1.0 / (substeps * ramp_frames) as f64)
+                }
+            };
+            let start = StepStart {
+                xn: &self.xn,
+                h: if kind_is_dynamic { h } else { 1.0 },
+                ramp_start: &|duration| start_clock.ramp(duration),
+                ramp_end: &|duration| clock.ramp(duration),
+                free: &self.free,
+            };
+            self.newton
+                .potential_mut()
+                .begin_step(&start, &mut self.state.x);
             let kind = if kind_is_dynamic {
                 StepKind::Dynamic(self.history.inertial(&self.xn, &self.vn))
             } else {
@@ -577,24 +576,18 @@ impl Simulation {
                 stats.converged = false;
                 return (stats, true);
             }
-            // Moving obstacles go as far as they can without passing through the body, Newton
-            // moves the body out of their way, and so on until they arrive.
-            let mut pushes = 0;
-            while let Some(contact) = &mut self.newton.potential_mut().contact {
-                if contact.obstacles_arrived() || !info.converged {
-                    break;
-                }
-                pushes += 1;
-                let moved = contact.advance_obstacles(&self.state.x);
-                if pushes > MAX_OBSTACLE_PUSHES || (moved < 1e-6 && pushes > 1) {
-                    let name = contact.blocking_obstacle().unwrap_or("a moving obstacle");
-                    info.converged = false;
-                    info.failure = Some(format!(
-                        "{name} could not push the body out of its way within \
-                         {MAX_OBSTACLE_PUSHES} solves"
-                    ));
-                    self.blocked = true;
-                    break;
+            // A term may move itself on and ask for the step again (moving obstacles pushing
+            // the body out of their way, until they arrive).
+            while info.converged {
+                match self.newton.potential_mut().continue_step(&self.state.x) {
+                    Ok(false) => break,
+                    Ok(true) => {}
+                    Err(why) => {
+                        info.converged = false;
+                        info.failure = Some(why);
+                        self.blocked = true;
+                        break;
+                    }
                 }
                 let mut more = self
                     .newton
@@ -603,8 +596,9 @@ impl Simulation {
                     stats.converged = false;
                     return (stats, true);
                 }
-                // Each push starts near the last equilibrium; its tolerance is the step's (relative
-                // to the first solve's first residual), not a fraction of its own small start.
+                // Each new solve starts near the last equilibrium; its tolerance is the step's
+                // (relative to the first solve's first residual), not a fraction of its own
+                // small start.
                 let reference = info.history.first().copied().unwrap_or(0.0);
                 if !more.converged
                     && more.residual.is_finite()
@@ -700,9 +694,6 @@ fn initial_ledger(
         added: 0.0,
     }
 }
-
-/// Solves a step may take while moving obstacles push the body out of their way.
-const MAX_OBSTACLE_PUSHES: usize = 64;
 
 /// What to try when a frame fails, appended to the error.
 const ADVICE: &str = "Try more substeps or a smaller dt ([solver] substeps, dt), \

@@ -35,7 +35,7 @@ use super::friction::{
 };
 use super::obstacle::Shape;
 use super::surface::ContactSurface;
-use crate::integrator::{HessianShape, StepContext, StepKind, Term};
+use crate::integrator::{HessianShape, StepContext, StepKind, StepStart, Term};
 use crate::linear::sparse::BlockCsr;
 use crate::math::{Mat3, Vec3};
 
@@ -173,7 +173,12 @@ pub struct ContactTerm {
     ramp_target: Vec<f64>,
     /// The obstacle whose CCD bound held up the last push, if one did.
     blocker: Option<usize>,
+    /// Pushes of moving obstacles in the current step.
+    pushes: usize,
 }
+
+/// Solves a step may take while moving obstacles push the body out of their way.
+pub const MAX_OBSTACLE_PUSHES: usize = 64;
 
 impl ContactTerm {
     /// The term for the surface of `mesh` (every body; rest positions, vertex masses `masses`)
@@ -222,6 +227,7 @@ impl ContactTerm {
             ramp_start: Vec::new(),
             ramp_now: Vec::new(),
             ramp_target: Vec::new(),
+            pushes: 0,
             blocker: None,
         };
         term.place(|_| 0.0);
@@ -598,6 +604,33 @@ impl Term for ContactTerm {
         let mut partials = vec![0.0; ctx.f_ext.len().div_ceil(crate::linear::cg::CHUNK).max(1)];
         let loads = crate::linear::cg::dot(ctx.f_ext, ctx.f_ext, &mut partials).sqrt();
         ctx.params.newton_tolerance * loads
+    }
+
+    /// Moving obstacles placed at the step's start and end, and the guess no further than CCD
+    /// finds free, carried along by moving obstacles.
+    fn begin_step(&mut self, start: &StepStart<'_>, guess: &mut [Vec3]) {
+        self.pushes = 0;
+        ContactTerm::begin_step(self, start.xn, start.h, start.ramp_start, start.ramp_end);
+        self.prepare_guess(start.xn, guess, start.free);
+    }
+
+    /// Moving obstacles go as far as they can without passing through the body, Newton moves
+    /// the body out of their way, and so on until they arrive; an obstacle that cannot get
+    /// through within [`MAX_OBSTACLE_PUSHES`] solves (or stops moving) ends the step.
+    fn continue_step(&mut self, x: &[Vec3]) -> Result<bool, String> {
+        if self.obstacles_arrived() {
+            return Ok(false);
+        }
+        self.pushes += 1;
+        let moved = self.advance_obstacles(x);
+        if self.pushes > MAX_OBSTACLE_PUSHES || (moved < 1e-6 && self.pushes > 1) {
+            let name = self.blocking_obstacle().unwrap_or("a moving obstacle");
+            return Err(format!(
+                "{name} could not push the body out of its way within \
+                 {MAX_OBSTACLE_PUSHES} solves"
+            ));
+        }
+        Ok(true)
     }
 
     /// IPC's balanced barrier stiffness, once a step (see [`ContactTerm::balance_stiffness`]).

@@ -52,7 +52,7 @@ pub use params::{DampingTangent, MatrixPrecision, OnFailure, SolverParams};
 pub use problem::{IncrementalPotential, StepContext, StepKind};
 pub use scheme::{BackwardEulerStep, Inertial, Integrator};
 pub use stats::{NewtonInfo, StepStats, Timings};
-pub use terms::{HessianShape, Term};
+pub use terms::{HessianShape, StepStart, Term};
 
 /// Vertices per parallel chunk in the vector updates; fixed so sums are deterministic.
 pub(crate) const CHUNK: usize = 2048;

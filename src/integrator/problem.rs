@@ -175,6 +175,23 @@ impl IncrementalPotential {
             .fold(1.0, f64::min)
     }
 
+    /// Every term's [`Term::begin_step`], in order.
+    pub fn begin_step(&mut self, start: &super::terms::StepStart<'_>, guess: &mut [Vec3]) {
+        for term in self.terms_mut() {
+            term.begin_step(start, guess);
+        }
+    }
+
+    /// Every term's [`Term::continue_step`]: `Ok(true)` when one moved on and the step is to
+    /// be solved again, the first `Err` when one cannot go on.
+    pub fn continue_step(&mut self, x: &[Vec3]) -> Result<bool, String> {
+        let mut again = false;
+        for term in self.terms_mut() {
+            again |= term.continue_step(x)?;
+        }
+        Ok(again)
+    }
+
     /// The largest residual floor a term asks for (see [`Term::residual_floor`]), N.
     pub fn residual_floor(&mut self, ctx: &StepContext<'_>) -> f64 {
         self.terms_mut()

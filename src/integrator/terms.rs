@@ -30,6 +30,21 @@ use crate::linear::sparse::{BlockCsr, BlockPattern};
 use crate::material::Definiteness;
 use crate::math::{Mat3, Vec3};
 
+/// How a step starts, for [`Term::begin_step`].
+pub struct StepStart<'a> {
+    /// Positions at the step's start.
+    pub xn: &'a [Vec3],
+    /// The step's length, s (1 for a load step).
+    pub h: f64,
+    /// The ramp factor of a motion of the given duration (None: the whole run) at the step's
+    /// start.
+    pub ramp_start: &'a dyn Fn(Option<f64>) -> f64,
+    /// The same at the step's end.
+    pub ramp_end: &'a dyn Fn(Option<f64>) -> f64,
+    /// 0/1 mask of the free DOFs.
+    pub free: &'a [Vec3],
+}
+
 /// How a term's Hessian looks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HessianShape {
@@ -96,6 +111,18 @@ pub trait Term: Send {
     /// continuous collision detection finds free); the line search starts there. Default 1.
     fn max_step(&mut self, _ctx: &StepContext<'_>, _x: &[Vec3], _dx: &[Vec3]) -> f64 {
         1.0
+    }
+
+    /// Called once before a step's solve, with Newton's first guess, which the term may change
+    /// (contact: moving obstacles placed for the step, the guess cut back to what continuous
+    /// collision detection finds free). Default: nothing.
+    fn begin_step(&mut self, _start: &StepStart<'_>, _guess: &mut [Vec3]) {}
+
+    /// After a converged solve of the step at x: `Ok(false)` when the term is done with the
+    /// step, `Ok(true)` when it moved itself on and the step must be solved again (contact:
+    /// moving obstacles pushing the body), `Err(why)` when it cannot go on. Default `Ok(false)`.
+    fn continue_step(&mut self, _x: &[Vec3]) -> Result<bool, String> {
+        Ok(false)
     }
 
     /// A residual (N) below which this term's forces cannot be resolved, so that Newton's
