@@ -519,9 +519,8 @@ fn forcing_term(
 const FORCING_MAX: f64 = 0.1;
 
 /// The first CG tolerance of a damped step that starts on the exact tangent (see
-/// [`super::policy`]). On the bench workload (41,472 tets) the first residual reduction then
-/// carries: 2.13 Newton iterations per frame at 6.4 CG each, against 2.80 at 4.3 with 0.1
-/// (0.03 gave 2.37; 0.001 gave 2.13 at 7.3 CG).
+/// [`super::policy`]): the first residual reduction then carries (measured in
+/// docs/performance.md, "Why the defaults").
 const FORCING_FIRST_EXACT: f64 = 0.01;
 
 /// Absolute residual floor: 1e-12 of the characteristic force E·ℓ²·√n (E from the material at

@@ -10,9 +10,8 @@ use crate::linear::sparse::Precision;
 use crate::material::{DampingStiffness, Definiteness};
 
 /// How the assembled strategies (AMG, Cholesky) store Newton's matrix A (scene key
-/// `matrix_precision`). f32 halves the bytes CG's product and the multigrid smoother read (a
-/// third less CG time on the benchmark cantilever beams, same Newton and CG iteration counts, the tip within
-/// 1e-7); but A's rounding, about 6e-8 of each entry, limits how exactly a Newton step solves
+/// `matrix_precision`). f32 halves the bytes CG's product and the multigrid smoother read
+/// (measured in docs/performance.md, "Why the defaults"); but A's rounding, about 6e-8 of each entry, limits how exactly a Newton step solves
 /// A·d = −g to about 6e-8 times the condition of A scaled by its diagonal: harmless with a
 /// dynamic step's mass term (M/h² bounds it), not with the stiffness alone, whose condition
 /// grows with the mesh and with near-incompressibility, nor with contact barriers (see
@@ -101,13 +100,8 @@ pub struct SolverParams {
     /// Definiteness treatment of K. Default Adaptive: Teran's projection, with the exact tangent
     /// once projected Newton stalls (see [`Definiteness::Adaptive`]).
     pub definiteness: Definiteness,
-    /// Preconditioner. Default AMG on the assembled system: on the default cantilever (3,000
-    /// tets, 60 frames) 1,055 CG iterations in all against Jacobi's 8,725 and 1.4 s against 2.7 s
-    /// of CPU; 7–10× faster per frame than Jacobi at 41,472 and 192,000 tets (see docs/user-guide.md).
-    /// Among the matrix-free ones Jacobi beats block Jacobi (122 against 129 CG iterations per
-    /// Newton iteration on the default beam, 272 against 303 at 41,472 tets). The sparse Cholesky
-    /// (feature `direct`, factor kept) ran the bench beam in 0.054 s/frame against AMG's 0.085
-    /// at 5,184 tets but 1.71 against 0.82 at 41,472 tets: AMG stays the default.
+    /// Preconditioner. Default AMG on the assembled system (why, against Jacobi, block Jacobi
+    /// and the sparse Cholesky: docs/performance.md, "Why the defaults").
     pub preconditioner: PreconditionerKind,
     /// Settings of the AMG preconditioner (used when `preconditioner` is `Amg`).
     pub amg: AmgParams,
@@ -118,8 +112,7 @@ pub struct SolverParams {
     pub inexact_newton: bool,
     /// With the AMG preconditioner, CG multiplies with the upper triangle of A stored in f32
     /// (f64 vectors and sums) instead of the full f64 matrix: a third of the bytes per product.
-    /// Newton and CG iteration counts are unchanged on the benchmark cantilever beams. Default false (see
-    /// the user guide's speed section for the measurement).
+    /// Default false.
     pub f32_matrix: bool,
     /// How the assembled strategies store A (see [`MatrixPrecision`]). Default auto.
     pub matrix_precision: MatrixPrecision,

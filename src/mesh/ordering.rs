@@ -9,11 +9,8 @@
 //!
 //! Orderings, chosen with `[mesh] reorder` (`tetsim bench --reorder` measures them):
 //! - [`VertexOrder::Auto`] (the default): a generator's own order (its lattice order is already
-//!   local) and reverse Cuthill–McKee for mesh files. Measured with `tetsim bench` on the
-//!   benchmark beam (shared machine, one run each): the lattice order ran n = 20 at 4.13 s/frame
-//!   against 4.57 with RCM (RCM's order also gave AMG's greedy aggregation a larger hierarchy,
-//!   1,790 against 1,702 bytes per tet per CG iteration), while on the same beam shuffled
-//!   (`random`) n = 12 took 0.876 s/frame against 0.739–0.788 ordered.
+//!   local) and reverse Cuthill–McKee for mesh files (measured in docs/performance.md, "Why the
+//!   defaults").
 //! - [`VertexOrder::Rcm`], reverse Cuthill–McKee: breadth-first from a
 //!   pseudo-peripheral vertex, neighbours by increasing degree, reversed. It minimises the
 //!   matrix bandwidth, so the rows a CG product touches lie in a narrow band of x.
