@@ -616,12 +616,7 @@ impl Simulation {
                 info.failure = Some(reason);
             }
             stats.absorb(&info);
-            if let Some(contact) = &self.newton.potential().contact {
-                stats.contacts = contact.active_pairs();
-                stats.min_distance = contact.min_distance();
-                stats.contact_energy = contact.energy();
-                stats.friction_dissipation += contact.friction_dissipation();
-            }
+            self.newton.potential().add_stats(&mut stats);
             self.state.t = t;
             let mut finite = self
                 .state

@@ -633,6 +633,13 @@ impl Term for ContactTerm {
         Ok(true)
     }
 
+    fn add_stats(&self, stats: &mut crate::integrator::StepStats) {
+        stats.contacts = self.active_pairs();
+        stats.min_distance = self.min_distance();
+        stats.contact_energy = self.energy();
+        stats.friction_dissipation += self.friction_dissipation();
+    }
+
     /// IPC's balanced barrier stiffness, once a step (see [`ContactTerm::balance_stiffness`]).
     fn after_first_evaluation(&mut self, ctx: &StepContext<'_>, force: &[Vec3]) -> bool {
         self.balance_stiffness(force, ctx.free)

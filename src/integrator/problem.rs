@@ -192,6 +192,13 @@ impl IncrementalPotential {
         Ok(again)
     }
 
+    /// Every term's [`Term::add_stats`], in order.
+    pub fn add_stats(&self, stats: &mut super::stats::StepStats) {
+        for term in self.later_terms_ref() {
+            term.add_stats(stats);
+        }
+    }
+
     /// The largest residual floor a term asks for (see [`Term::residual_floor`]), N.
     pub fn residual_floor(&mut self, ctx: &StepContext<'_>) -> f64 {
         self.terms_mut()

@@ -125,6 +125,10 @@ pub trait Term: Send {
         Ok(false)
     }
 
+    /// Add what this term did in the step just solved to its statistics (contact: steps.csv's
+    /// contacts, min_distance, contact_energy and friction_dissipation). Default: nothing.
+    fn add_stats(&self, _stats: &mut super::stats::StepStats) {}
+
     /// A residual (N) below which this term's forces cannot be resolved, so that Newton's
     /// absolute floor is raised to it (contact: the tolerance times the loads, a stiff barrier's
     /// rounding being far above a fraction of a small first residual). Default 0.
