@@ -177,9 +177,6 @@ pub struct ContactTerm {
     pushes: usize,
 }
 
-/// Solves a step may take while moving obstacles push the body out of their way.
-pub const MAX_OBSTACLE_PUSHES: usize = 64;
-
 impl ContactTerm {
     /// The term for the surface of `mesh` (every body; rest positions, vertex masses `masses`)
     /// against `setup`'s obstacles, between its bodies and (with `self_contact`) inside each.
@@ -606,31 +603,12 @@ impl Term for ContactTerm {
         ctx.params.newton_tolerance * loads
     }
 
-    /// Moving obstacles placed at the step's start and end, and the guess no further than CCD
-    /// finds free, carried along by moving obstacles.
     fn begin_step(&mut self, start: &StepStart<'_>, guess: &mut [Vec3]) {
-        self.pushes = 0;
-        ContactTerm::begin_step(self, start.xn, start.h, start.ramp_start, start.ramp_end);
-        self.prepare_guess(start.xn, guess, start.free);
+        self.start_step(start, guess);
     }
 
-    /// Moving obstacles go as far as they can without passing through the body, Newton moves
-    /// the body out of their way, and so on until they arrive; an obstacle that cannot get
-    /// through within [`MAX_OBSTACLE_PUSHES`] solves (or stops moving) ends the step.
     fn continue_step(&mut self, x: &[Vec3]) -> Result<bool, String> {
-        if self.obstacles_arrived() {
-            return Ok(false);
-        }
-        self.pushes += 1;
-        let moved = self.advance_obstacles(x);
-        if self.pushes > MAX_OBSTACLE_PUSHES || (moved < 1e-6 && self.pushes > 1) {
-            let name = self.blocking_obstacle().unwrap_or("a moving obstacle");
-            return Err(format!(
-                "{name} could not push the body out of its way within \
-                 {MAX_OBSTACLE_PUSHES} solves"
-            ));
-        }
-        Ok(true)
+        self.push_obstacles(x)
     }
 
     fn add_stats(&self, stats: &mut crate::integrator::StepStats) {

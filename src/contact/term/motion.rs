@@ -4,7 +4,38 @@
 use super::*;
 use crate::contact::distance::{edge_edge_distance, point_triangle_distance};
 
+/// Solves a step may take while moving obstacles push the body out of their way.
+pub const MAX_OBSTACLE_PUSHES: usize = 64;
+
 impl ContactTerm {
+    /// A step's start (see [`Term::begin_step`]): moving obstacles placed at the step's start
+    /// and end, and the guess no further than CCD finds free, carried along by moving obstacles.
+    pub(super) fn start_step(&mut self, start: &StepStart<'_>, guess: &mut [Vec3]) {
+        self.pushes = 0;
+        self.begin_step(start.xn, start.h, start.ramp_start, start.ramp_end);
+        self.prepare_guess(start.xn, guess, start.free);
+    }
+
+    /// After a converged solve (see [`Term::continue_step`]): moving obstacles go as far as
+    /// they can without passing through the body, Newton moves the body out of their way, and
+    /// so on until they arrive; an obstacle that cannot get through within
+    /// [`MAX_OBSTACLE_PUSHES`] solves (or stops moving) ends the step.
+    pub(super) fn push_obstacles(&mut self, x: &[Vec3]) -> Result<bool, String> {
+        if self.obstacles_arrived() {
+            return Ok(false);
+        }
+        self.pushes += 1;
+        let moved = self.advance_obstacles(x);
+        if self.pushes > MAX_OBSTACLE_PUSHES || (moved < 1e-6 && self.pushes > 1) {
+            let name = self.blocking_obstacle().unwrap_or("a moving obstacle");
+            return Err(format!(
+                "{name} could not push the body out of its way within \
+                 {MAX_OBSTACLE_PUSHES} solves"
+            ));
+        }
+        Ok(true)
+    }
+
     /// Put every moving obstacle where `ramp` (the ramp factor of a motion of the given
     /// duration) puts it: where the run starts, for the check of the initial state.
     pub fn place_obstacles(&mut self, ramp: impl Fn(Option<f64>) -> f64) {
