@@ -521,23 +521,7 @@ impl Simulation {
                 let s = ((frame - 1) as f64 + i as f64 / substeps as f64) / ramp_frames as f64;
                 (Clock::LoadFactor(s), false, 0.0, s)
             };
-            if self.boundary.has_releases() {
-                self.boundary.fill_free_mask(Some(&clock), &mut self.free);
-            }
-            self.xn.copy_from_slice(&self.state.x);
-            self.vn.copy_from_slice(&self.state.v);
-            if kind_is_dynamic {
-                if self.history.needs_acceleration(p.integrator, self.xn.len()) {
-                    let a = self.start_acceleration(&clock, h);
-                    self.history.set_acceleration(a);
-                }
-                let predicted = self.history.plan(p.integrator, &self.xn, &self.vn, h);
-                self.state.x.copy_from_slice(predicted);
-            }
-            self.boundary
-                .prescribe(&clock, &self.initial, &mut self.state.x);
-            self.boundary
-                .external_forces(&clock, self.body.masses(), &mut self.f_ext);
+            // The clock where the step starts (the ramps and loads there).
             let start_clock = match clock {
                 Clock::Time { time, run_duration } => Clock::Time {
                     time: time - h,
@@ -547,6 +531,23 @@ impl Simulation {
                     Clock::LoadFactor(s - 1.0 / (substeps * ramp_frames) as f64)
                 }
             };
+            if self.boundary.has_releases() {
+                self.boundary.fill_free_mask(Some(&clock), &mut self.free);
+            }
+            self.xn.copy_from_slice(&self.state.x);
+            self.vn.copy_from_slice(&self.state.v);
+            if kind_is_dynamic {
+                if self.history.needs_acceleration(p.integrator, self.xn.len()) {
+                    let a = self.start_acceleration(&start_clock);
+                    self.history.set_acceleration(a);
+                }
+                let predicted = self.history.plan(p.integrator, &self.xn, &self.vn, h);
+                self.state.x.copy_from_slice(predicted);
+            }
+            self.boundary
+                .prescribe(&clock, &self.initial, &mut self.state.x);
+            self.boundary
+                .external_forces(&clock, self.body.masses(), &mut self.f_ext);
             let start = StepStart {
                 xn: &self.xn,
                 h: if kind_is_dynamic { h } else { 1.0 },

@@ -58,6 +58,14 @@ fn positions(dir: &Path, frame: usize) -> Vec<Vec3> {
         .points
 }
 
+/// The largest distance between the same vertex in two frames, m.
+fn farthest(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max)
+}
+
 #[test]
 fn ranks_give_the_serial_answer_and_files() {
     let tmp = tempfile::tempdir().unwrap();
@@ -68,13 +76,7 @@ fn ranks_give_the_serial_answer_and_files() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let rest = positions(&serial, 0);
-    let end = positions(&serial, 4);
-    let moved = rest
-        .iter()
-        .zip(&end)
-        .map(|(a, b)| (a - b).norm())
-        .fold(0.0, f64::max);
+    let moved = farthest(&positions(&serial, 0), &positions(&serial, 4));
     assert!(moved > 1e-3, "the beam moves ({moved:e} m)");
     for ranks in [1, 2, 4] {
         let dir = tmp.path().join(format!("ranks{ranks}"));
@@ -86,12 +88,7 @@ fn ranks_give_the_serial_answer_and_files() {
         );
         assert_eq!(files(&dir), files(&serial), "{ranks} ranks: the same files");
         for frame in 1..=4 {
-            let (a, b) = (positions(&serial, frame), positions(&dir, frame));
-            let worst = a
-                .iter()
-                .zip(&b)
-                .map(|(a, b)| (a - b).norm())
-                .fold(0.0, f64::max);
+            let worst = farthest(&positions(&serial, frame), &positions(&dir, frame));
             // Newton stops at 1e-7 of the first residual: the answers agree far below the
             // displacement (the serial AMG and PETSc's GAMG stop at different iterates).
             assert!(
@@ -135,19 +132,9 @@ fn every_time_scheme_gives_the_serial_answer_on_two_ranks() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let rest = positions(&serial, 0);
-        let moved = rest
-            .iter()
-            .zip(&positions(&serial, 4))
-            .map(|(a, b)| (a - b).norm())
-            .fold(0.0, f64::max);
+        let moved = farthest(&positions(&serial, 0), &positions(&serial, 4));
         for frame in 1..=4 {
-            let (a, b) = (positions(&serial, frame), positions(&dir, frame));
-            let worst = a
-                .iter()
-                .zip(&b)
-                .map(|(a, b)| (a - b).norm())
-                .fold(0.0, f64::max);
+            let worst = farthest(&positions(&serial, frame), &positions(&dir, frame));
             assert!(
                 worst <= 1e-5 * moved,
                 "{scheme}, frame {frame}: {worst:e} m apart (moved {moved:e} m)"

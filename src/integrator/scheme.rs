@@ -412,8 +412,12 @@ impl History {
                 self.previous_v.extend_from_slice(vn);
                 self.previous_h = self.plan.h;
                 // The step's acceleration, to start afresh from after a change of step.
+                let mut a = std::mem::take(&mut self.acceleration);
+                a.resize(v.len(), Vec3::zeros());
                 let step = self.inertial(xn, vn);
-                let a: Vec<Vec3> = (0..v.len()).map(|i| step.acceleration(i, &v[i])).collect();
+                for (i, a) in a.iter_mut().enumerate() {
+                    *a = step.acceleration(i, &v[i]);
+                }
                 self.acceleration = a;
             }
             Integrator::Newmark { .. } => {

@@ -8,21 +8,14 @@ use crate::math::Vec3;
 
 impl Simulation {
     /// `M⁻¹·(f(xⁿ) − α·M·vⁿ)` on free components, zero on constrained ones, at the start of the
-    /// step of h ending at `clock`: f the force of every term of the potential but inertia
+    /// step, whose clock is `start`: f the force of every term of the potential but inertia
     /// (elasticity, the loads at tⁿ, contact, added terms). The stiffness-damping force at the
     /// start is left out: zero for a body at rest, which is how scenes start.
-    pub(super) fn start_acceleration(&mut self, clock: &Clock, h: f64) -> Vec<Vec3> {
+    pub(super) fn start_acceleration(&mut self, start: &Clock) -> Vec<Vec3> {
         let n = self.xn.len();
-        let start = match *clock {
-            Clock::Time { time, run_duration } => Clock::Time {
-                time: time - h,
-                run_duration,
-            },
-            other => other,
-        };
         let mut loads = vec![Vec3::zeros(); n];
         self.boundary
-            .external_forces(&start, self.body.masses(), &mut loads);
+            .external_forces(start, self.body.masses(), &mut loads);
         let ctx = StepContext {
             body: &self.body,
             kind: StepKind::Static,
