@@ -9,6 +9,7 @@ pub mod doctor;
 pub mod generate;
 pub mod ordering;
 pub mod overlap;
+pub mod quadratic;
 
 use crate::error::MeshProblem;
 use crate::math::{Mat3, Vec3};
@@ -45,8 +46,11 @@ pub struct Group {
 pub struct TetMesh {
     /// Rest positions in metres.
     pub positions: Vec<Vec3>,
-    /// Tets as four 0-based vertex indices. Either orientation is accepted.
+    /// Tets as four 0-based vertex indices (their corners). Either orientation is accepted.
     pub tets: Vec<[usize; 4]>,
+    /// Quadratic tets only (empty otherwise): each tet's six mid-edge nodes, in the order of
+    /// [`quadratic::EDGES`].
+    pub edge_nodes: Vec<[usize; 6]>,
     /// Named groups (Gmsh physical groups, generator faces).
     pub groups: Vec<Group>,
     /// Id of each tet in the source file, for error messages (None: the 0-based index).
@@ -106,7 +110,12 @@ impl TetMesh {
             return Err(MeshProblem::NoTetrahedra);
         }
         for (t, tet) in self.tets.iter().enumerate() {
-            if let Some(&v) = tet.iter().find(|&&v| v >= self.positions.len()) {
+            let edge_nodes = self.edge_nodes.get(t).map_or(&[][..], |e| &e[..]);
+            if let Some(&v) = tet
+                .iter()
+                .chain(edge_nodes)
+                .find(|&&v| v >= self.positions.len())
+            {
                 // Readers map file ids to indices and report unknown ids themselves; here the
                 // index is all there is.
                 return Err(MeshProblem::IndexOutOfRange {
@@ -168,7 +177,8 @@ impl TetMesh {
         let mut faces: Vec<([usize; 3], [usize; 3], usize)> =
             Vec::with_capacity(4 * self.tets.len());
         for (t, tet) in self.tets.iter().enumerate() {
-            if tet.iter().any(|&v| v >= n) {
+            let edge_nodes = self.edge_nodes.get(t).map_or(&[][..], |e| &e[..]);
+            if tet.iter().chain(edge_nodes).any(|&v| v >= n) {
                 continue;
             }
             let [a, b, c, d] = *tet;
@@ -194,7 +204,20 @@ impl TetMesh {
                 j += 1;
             }
             if j - i == 1 {
-                boundary.push((faces[i].1, faces[i].2));
+                let (face, t) = (faces[i].1, faces[i].2);
+                if self.is_quadratic() {
+                    let mid = |a: usize, b: usize| {
+                        let local = |v: usize| self.tets[t].iter().position(|&c| c == v).unwrap();
+                        self.edge_node(t, local(a), local(b))
+                    };
+                    let [p, q, r] = face;
+                    let mids = [mid(p, q), mid(q, r), mid(r, p)];
+                    for sub in quadratic::split_face(face, mids) {
+                        boundary.push((sub, t));
+                    }
+                } else {
+                    boundary.push((face, t));
+                }
             }
             i = j;
         }
@@ -208,6 +231,9 @@ impl TetMesh {
         for t in 0..self.tets.len() {
             if self.signed_volume(t) < 0.0 {
                 self.tets[t].swap(2, 3);
+                if let Some(e) = self.edge_nodes.get_mut(t) {
+                    *e = quadratic::SWAP_23.map(|k| e[k]);
+                }
                 count += 1;
             }
         }
@@ -220,15 +246,24 @@ impl TetMesh {
     /// of range (see [`TetMesh::validate`]).
     pub fn drop_unreferenced_vertices(&mut self) -> Vec<u64> {
         let n = self.positions.len();
-        if self.tets.iter().flatten().any(|&v| v >= n) {
+        if self
+            .tets
+            .iter()
+            .flatten()
+            .chain(self.edge_nodes.iter().flatten())
+            .any(|&v| v >= n)
+        {
             // Not a mesh to renumber: `validate` reports the bad index.
             return Vec::new();
         }
         let mut used = vec![false; n];
-        for tet in &self.tets {
-            for &v in tet {
-                used[v] = true;
-            }
+        for &v in self
+            .tets
+            .iter()
+            .flatten()
+            .chain(self.edge_nodes.iter().flatten())
+        {
+            used[v] = true;
         }
         if used.iter().all(|&u| u) {
             return Vec::new();
@@ -250,6 +285,9 @@ impl TetMesh {
         self.vertex_ids = Some(ids);
         for tet in &mut self.tets {
             *tet = tet.map(|v| new_index[v]);
+        }
+        for e in &mut self.edge_nodes {
+            *e = e.map(|v| new_index[v]);
         }
         for g in &mut self.groups {
             g.vertices = g

@@ -87,6 +87,9 @@ impl Renumbering {
     pub fn new(mesh: &TetMesh, order: VertexOrder) -> Option<Self> {
         let vertex_old = match order {
             VertexOrder::None => return None,
+            VertexOrder::Auto | VertexOrder::Rcm if mesh.is_quadratic() => {
+                reverse_cuthill_mckee(mesh.positions.len(), &mesh.elements())
+            }
             VertexOrder::Auto | VertexOrder::Rcm => {
                 reverse_cuthill_mckee(mesh.positions.len(), &mesh.tets)
             }
@@ -143,6 +146,14 @@ impl Renumbering {
                 .map(|&t| mesh.tets[t].map(|v| self.vertex_new[v]))
                 .collect(),
             groups,
+            edge_nodes: if mesh.is_quadratic() {
+                self.tet_old
+                    .iter()
+                    .map(|&t| mesh.edge_nodes[t].map(|v| self.vertex_new[v]))
+                    .collect()
+            } else {
+                Vec::new()
+            },
             tet_ids: Some(self.tet_old.iter().map(|&t| mesh.tet_id(t)).collect()),
             vertex_ids: Some(self.vertex_old.iter().map(|&v| mesh.vertex_id(v)).collect()),
         }
@@ -195,9 +206,10 @@ pub fn bandwidth(tets: &[[usize; 4]]) -> usize {
 }
 
 /// Vertex adjacency (vertices sharing a tet) in compressed rows, each row sorted and unique.
-fn adjacency(n: usize, tets: &[[usize; 4]]) -> (Vec<usize>, Vec<usize>) {
+fn adjacency<T: AsRef<[usize]>>(n: usize, tets: &[T]) -> (Vec<usize>, Vec<usize>) {
     let mut rows: Vec<Vec<usize>> = vec![Vec::new(); n];
     for t in tets {
+        let t = t.as_ref();
         for &a in t {
             rows[a].extend(t.iter().copied().filter(|&b| b != a));
         }
@@ -218,7 +230,7 @@ fn adjacency(n: usize, tets: &[[usize; 4]]) -> (Vec<usize>, Vec<usize>) {
 /// (lowest old index first), each started from a pseudo-peripheral vertex (George and Liu's
 /// repeated breadth-first search for the vertex of greatest eccentricity). Deterministic: ties
 /// are broken by old index.
-pub fn reverse_cuthill_mckee(n: usize, tets: &[[usize; 4]]) -> Vec<usize> {
+pub fn reverse_cuthill_mckee<T: AsRef<[usize]>>(n: usize, tets: &[T]) -> Vec<usize> {
     let (start, cols) = adjacency(n, tets);
     let neighbours = |v: usize| &cols[start[v]..start[v + 1]];
     let degree = |v: usize| start[v + 1] - start[v];
