@@ -14,6 +14,7 @@
 
 use rayon::prelude::*;
 
+use crate::error::MeshProblem;
 use crate::error::{Error, Result};
 use crate::linear::sparse::{BlockCsr, BlockPattern};
 use crate::material::{
@@ -26,6 +27,8 @@ mod assembly;
 mod damped;
 mod element;
 pub mod part;
+pub mod quadratic;
+mod quadratic_body;
 pub mod recovery;
 pub use assembly::AssemblyWork;
 use element::upper_index;
@@ -56,7 +59,8 @@ struct Incidence {
 }
 
 impl Incidence {
-    fn new(vertex_count: usize, tets: &[[usize; 4]]) -> Self {
+    /// Slot `N·t + corner` for each corner of each element of N nodes.
+    fn new<const N: usize>(vertex_count: usize, tets: &[[usize; N]]) -> Self {
         let mut offsets = vec![0u32; vertex_count + 1];
         for tet in tets {
             for &v in tet {
@@ -67,10 +71,10 @@ impl Incidence {
             offsets[v + 1] += offsets[v];
         }
         let mut fill = offsets.clone();
-        let mut slots = vec![0u32; 4 * tets.len()];
+        let mut slots = vec![0u32; N * tets.len()];
         for (t, tet) in tets.iter().enumerate() {
             for (corner, &v) in tet.iter().enumerate() {
-                slots[fill[v] as usize] = (4 * t + corner) as u32;
+                slots[fill[v] as usize] = (N * t + corner) as u32;
                 fill[v] += 1;
             }
         }
@@ -116,6 +120,9 @@ pub struct ElasticBody {
     incidence: Incidence,
     /// Tangled elements and the forms they are evaluated with.
     recovery: recovery::Recovery,
+    /// Quadratic tets: their nodes and per-point rest data (`bm` and `volume` then describe
+    /// the straight tet of the corners, for probes and geometric checks).
+    quadratic: Option<Box<quadratic::QuadraticElements>>,
 }
 
 /// A set of tets with their own material and density.
@@ -205,10 +212,35 @@ impl ElasticBody {
             let w = dm.determinant().abs() / 6.0;
             bm.push(inv);
             volume.push(w);
-            for &v in tet {
-                mass[v] += 0.25 * density_of(t) * w;
+            if !mesh.is_quadratic() {
+                for &v in tet {
+                    mass[v] += 0.25 * density_of(t) * w;
+                }
             }
         }
+        let quadratic = if mesh.is_quadratic() {
+            let q = quadratic::QuadraticElements::new(&mesh).map_err(|bad| Error::Mesh {
+                path: None,
+                problem: MeshProblem::Degenerate {
+                    tets: bad.into_iter().map(|t| mesh.tet_id(t)).collect(),
+                },
+            })?;
+            for t in 0..mesh.tets.len() {
+                let m = density_of(t) * q.volume(t);
+                let nodes = &q.nodes[t];
+                for (a, &v) in nodes.iter().enumerate() {
+                    let share = if a < 4 {
+                        quadratic::CORNER_MASS
+                    } else {
+                        quadratic::EDGE_MASS
+                    };
+                    mass[v] += share * m;
+                }
+            }
+            Some(Box::new(q))
+        } else {
+            None
+        };
         let incidence = Incidence::new(mesh.positions.len(), &mesh.tets);
         let recovery =
             recovery::Recovery::new(std::iter::once(&model).chain(regions.iter().map(|(m, _)| m)));
@@ -223,6 +255,7 @@ impl ElasticBody {
             volume,
             mass,
             incidence,
+            quadratic,
         })
     }
 
@@ -337,6 +370,9 @@ impl ElasticBody {
     pub fn energy(&self, x: &[Vec3]) -> f64 {
         assert_eq!(x.len(), self.vertex_count());
         use crate::material::Material;
+        if let Some(q) = self.quadratic() {
+            return self.quadratic_energy(q, x);
+        }
         let chunks: Vec<f64> = (0..self.tet_count())
             .into_par_iter()
             .chunks(CHUNK)
@@ -354,9 +390,14 @@ impl ElasticBody {
         chunks.iter().sum()
     }
 
-    /// Per-tet energy densities Ψ(F), J/m³ (for output fields).
+    /// Per-tet energy densities Ψ(F), J/m³ (for output fields; a quadratic tet's mean over its
+    /// points).
     pub fn energy_densities(&self, x: &[Vec3]) -> Vec<f64> {
         use crate::material::Material;
+        if let Some(q) = self.quadratic() {
+            let psi = |t: usize, f: &Mat3| self.model_of(t).energy_density(f);
+            return self.per_tet_of_points(q, x, psi, weighted_mean);
+        }
         (0..self.tet_count())
             .into_par_iter()
             .with_min_len(CHUNK)
@@ -367,9 +408,18 @@ impl ElasticBody {
             .collect()
     }
 
-    /// Per-tet first Piola-Kirchhoff stresses P(F), Pa (for output fields).
+    /// Per-tet first Piola-Kirchhoff stresses P(F), Pa (for output fields; a quadratic tet's
+    /// mean over its points).
     pub fn stresses(&self, x: &[Vec3]) -> Vec<Mat3> {
         use crate::material::Material;
+        if let Some(q) = self.quadratic() {
+            let p = |t: usize, f: &Mat3| self.model_of(t).stress(f);
+            return self.per_tet_of_points(q, x, p, |v| {
+                let w: f64 = v.iter().map(|(w, _)| w).sum();
+                v.iter()
+                    .fold(Mat3::zeros(), |acc, (wi, p)| acc + p * (wi / w))
+            });
+        }
         (0..self.tet_count())
             .into_par_iter()
             .with_min_len(CHUNK)
@@ -377,9 +427,14 @@ impl ElasticBody {
             .collect()
     }
 
-    /// Per-tet von Mises stress of the Cauchy stress, Pa (see [`von_mises`]).
+    /// Per-tet von Mises stress of the Cauchy stress, Pa (see [`von_mises`]; a quadratic tet's
+    /// mean over its points).
     pub fn von_mises_stresses(&self, x: &[Vec3]) -> Vec<f64> {
         use crate::material::Material;
+        if let Some(q) = self.quadratic() {
+            let vm = |t: usize, f: &Mat3| von_mises(&self.model_of(t).stress(f), f);
+            return self.per_tet_of_points(q, x, vm, weighted_mean);
+        }
         (0..self.tet_count())
             .into_par_iter()
             .with_min_len(CHUNK)
@@ -390,8 +445,15 @@ impl ElasticBody {
             .collect()
     }
 
-    /// Per-tet J = det F.
+    /// Per-tet J = det F (a quadratic tet's smallest over its points: it is inverted where
+    /// any point is).
     pub fn jacobians(&self, x: &[Vec3]) -> Vec<f64> {
+        if let Some(q) = self.quadratic() {
+            let j = |_: usize, f: &Mat3| f.determinant();
+            return self.per_tet_of_points(q, x, j, |v| {
+                v.iter().map(|(_, j)| *j).fold(f64::INFINITY, f64::min)
+            });
+        }
         (0..self.tet_count())
             .into_par_iter()
             .with_min_len(CHUNK)
@@ -412,6 +474,9 @@ impl ElasticBody {
     pub fn add_forces(&self, x: &[Vec3], f: &mut [Vec3]) {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(f.len(), self.vertex_count());
+        if let Some(q) = self.quadratic() {
+            return self.quadratic_add_forces(q, x, f);
+        }
         let mut buffer = vec![[Vec3::zeros(); 3]; self.tet_count()];
         buffer
             .par_iter_mut()
@@ -439,12 +504,38 @@ impl ElasticBody {
     /// and return the elastic energy. Allocation-free: the Newton loop's entry point.
     pub fn linearize_into(&self, x: &[Vec3], lin: &mut Linearization, forces: &mut [Vec3]) -> f64 {
         assert_eq!(x.len(), self.vertex_count());
-        assert_eq!(lin.tangents.len(), self.tet_count());
+        assert_eq!(lin.tangents.len(), self.point_count());
         // `adaptive` evaluates the exact tangent and projects it below, keeping the exact pieces.
         let definiteness = match lin.definiteness {
             Definiteness::Adaptive => Definiteness::Exact,
             d => d,
         };
+        if let Some(q) = self.quadratic() {
+            self.quadratic_linearize_into(q, x, definiteness, lin, forces);
+        } else {
+            self.linear_linearize_into(x, definiteness, lin, forces);
+        }
+        if !lin.alternate.is_empty() {
+            lin.tangents
+                .par_iter_mut()
+                .zip(lin.alternate.par_iter_mut())
+                .with_min_len(CHUNK)
+                .for_each(|(t, a)| t.project_keeping_exact(a));
+            lin.exact_active = false;
+        }
+        lin.tangents_pending = false;
+        lin.count_tets();
+        lin.chunk_energy.iter().sum()
+    }
+
+    /// The linear tets' pass of [`ElasticBody::linearize_into`].
+    fn linear_linearize_into(
+        &self,
+        x: &[Vec3],
+        definiteness: Definiteness,
+        lin: &mut Linearization,
+        forces: &mut [Vec3],
+    ) {
         let svd = self.uses_svd();
         lin.tangents
             .par_chunks_mut(CHUNK)
@@ -466,17 +557,6 @@ impl ElasticBody {
                 *energy = sum;
             });
         self.incidence.gather(&lin.buffer, forces, false);
-        if !lin.alternate.is_empty() {
-            lin.tangents
-                .par_iter_mut()
-                .zip(lin.alternate.par_iter_mut())
-                .with_min_len(CHUNK)
-                .for_each(|(t, a)| t.project_keeping_exact(a));
-            lin.exact_active = false;
-        }
-        lin.tangents_pending = false;
-        lin.count_tets();
-        lin.chunk_energy.iter().sum()
     }
 
     /// Whether any of the body's materials needs the SVD of F (all but linear elasticity).
@@ -527,6 +607,14 @@ impl ElasticBody {
     /// tet its tangent, Bm, W and vertex indices, the per-tet buffer written then read, and the
     /// incidence slots; per vertex the input read, the output written and the incidence offsets.
     pub fn matrix_free_bytes_per_product(&self) -> f64 {
+        if self.quadratic.is_some() {
+            // Per point its tangent, gradients and weight; per tet its nodes, its slot buffer
+            // written then read, and the incidence slots.
+            let per_point = std::mem::size_of::<Tangent>() + 240 + 8;
+            let per_tet = quadratic::POINTS * per_point + 80 + 2 * 216 + 40;
+            let per_vertex = 24 + 24 + 4;
+            return (per_tet * self.tet_count() + per_vertex * self.vertex_count()) as f64;
+        }
         let per_tet = std::mem::size_of::<Tangent>() + 72 + 8 + 32 + 2 * 72 + 16;
         let per_vertex = 24 + 24 + 4;
         (per_tet * self.tet_count() + per_vertex * self.vertex_count()) as f64
@@ -537,6 +625,9 @@ impl ElasticBody {
         debug_assert!(!lin.tangents_pending, "tangents used before they were made");
         assert_eq!(dx.len(), self.vertex_count());
         assert_eq!(out.len(), self.vertex_count());
+        if let Some(q) = self.quadratic() {
+            return self.quadratic_apply_stiffness(q, lin, dx, out);
+        }
         let tangents = &lin.tangents;
         lin.buffer
             .par_chunks_mut(CHUNK)
@@ -561,6 +652,9 @@ impl ElasticBody {
     /// with bₐ = row a−1 of Bm (b₀ = −Σ rows). Gathered per vertex in tet order: deterministic.
     pub fn stiffness_diagonal_blocks(&self, lin: &Linearization, out: &mut [Mat3]) {
         assert_eq!(out.len(), self.vertex_count());
+        if let Some(q) = self.quadratic() {
+            return self.quadratic_diagonal_blocks(q, lin, out);
+        }
         let inc = &self.incidence;
         out.par_iter_mut()
             .enumerate()
@@ -627,6 +721,9 @@ pub struct Linearization {
     buffer: Vec<TetSlot>,
     /// Damped steps only: per tet its K_d·v contributions (empty until the first one).
     damping: Vec<TetSlot>,
+    /// Quadratic tets: their slots in place of `buffer` and `damping` (which stay empty).
+    buffer10: Vec<quadratic::Slot10>,
+    damping10: Vec<quadratic::Slot10>,
     /// The tangents are not those of the last evaluation yet (a damped step with a shift; see
     /// [`ElasticBody::damped_tangents_into`]).
     tangents_pending: bool,
@@ -639,7 +736,8 @@ pub struct Linearization {
 impl Linearization {
     /// Buffers sized for `body`, to be filled by [`ElasticBody::linearize_into`].
     pub fn new(body: &ElasticBody, definiteness: Definiteness) -> Self {
-        let n = body.tet_count();
+        let n = body.point_count();
+        let quadratic = body.quadratic.is_some();
         let rest = crate::material::Material::tangent(&body.model, &Mat3::identity(), definiteness);
         let alternate = match definiteness {
             Definiteness::Adaptive => vec![DiagonalPieces::default(); n],
@@ -650,8 +748,14 @@ impl Linearization {
             tangents: vec![rest; n],
             alternate,
             exact_active: false,
-            buffer: vec![[Vec3::zeros(); 3]; n],
+            buffer: if quadratic {
+                Vec::new()
+            } else {
+                vec![[Vec3::zeros(); 3]; n]
+            },
             damping: Vec::new(),
+            buffer10: quadratic_body::slots10(body),
+            damping10: Vec::new(),
             tangents_pending: false,
             chunk_energy: vec![0.0; n.div_ceil(CHUNK)],
             clamped_tets: 0,
@@ -671,8 +775,14 @@ impl Linearization {
             "per-tet alternate pieces (adaptive)",
             vec_bytes(&self.alternate),
         );
-        inventory.add("per-tet force slots", vec_bytes(&self.buffer));
-        inventory.add("per-tet damping K·v slots", vec_bytes(&self.damping));
+        inventory.add(
+            "per-tet force slots",
+            vec_bytes(&self.buffer) + vec_bytes(&self.buffer10),
+        );
+        inventory.add(
+            "per-tet damping K·v slots",
+            vec_bytes(&self.damping) + vec_bytes(&self.damping10),
+        );
     }
 
     /// Whether the tangents still wait for [`ElasticBody::damped_tangents_into`] (their counts
@@ -747,6 +857,12 @@ impl Linearization {
     pub fn exact_in_use(&self) -> bool {
         self.exact_active
     }
+}
+
+/// The weighted mean of per-point values.
+fn weighted_mean(values: &[(f64, f64)]) -> f64 {
+    let w: f64 = values.iter().map(|(w, _)| w).sum();
+    values.iter().map(|(wi, v)| wi * v).sum::<f64>() / w
 }
 
 #[cfg(test)]

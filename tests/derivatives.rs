@@ -8,6 +8,8 @@ mod common;
 mod damping;
 #[path = "derivatives/formulas.rs"]
 mod formulas;
+#[path = "derivatives/quadratic.rs"]
+mod quadratic;
 #[path = "derivatives/strategies.rs"]
 mod strategies;
 #[path = "derivatives/uniaxial.rs"]
@@ -234,9 +236,15 @@ fn restores_from(kind: ModelKind, case: &str) -> bool {
     }
 }
 
-fn body_states(seed: u64) -> (ElasticBody, Vec<(&'static str, Vec<Vec3>)>) {
+/// The small body of linear tets, or of quadratic ones (`quadratic`: elevated, with its
+/// mid-edge nodes moved off their edges, so the elements are curved), and states to check at:
+/// a random deformation and a scramble (inverted and flat elements).
+fn body_states(seed: u64, quadratic: bool) -> (ElasticBody, Vec<(&'static str, Vec<Vec3>)>) {
     let mut rng = rng(seed);
-    let mesh = small_mesh(&mut rng);
+    let mut mesh = small_mesh(&mut rng);
+    if quadratic {
+        mesh = curved(&mut rng, &tetsim::mesh::quadratic::elevate(&mesh));
+    }
     let rest = mesh.positions.clone();
     let (lo, hi) = mesh.bounding_box();
     let scrambled: Vec<Vec3> = rest
@@ -254,8 +262,8 @@ fn body_states(seed: u64) -> (ElasticBody, Vec<(&'static str, Vec<Vec3>)>) {
     (body, vec![("deformed", deformed), ("scrambled", scrambled)])
 }
 
-fn check_body_energy_to_forces(model: &Model, seed: u64) {
-    let (mut body, states) = body_states(seed);
+fn check_body_energy_to_forces(model: &Model, seed: u64, quadratic: bool) {
+    let (mut body, states) = body_states(seed, quadratic);
     body.model = *model;
     let mut rng = rng(seed + 1);
     for (name, x) in states {
@@ -272,8 +280,8 @@ fn check_body_energy_to_forces(model: &Model, seed: u64) {
     }
 }
 
-fn check_body_forces_to_stiffness(model: &Model, seed: u64) {
-    let (mut body, states) = body_states(seed);
+fn check_body_forces_to_stiffness(model: &Model, seed: u64, quadratic: bool) {
+    let (mut body, states) = body_states(seed, quadratic);
     body.model = *model;
     let mut rng = rng(seed + 2);
     for (name, x) in states {
@@ -320,8 +328,8 @@ fn dense_stiffness(body: &ElasticBody, x: &[Vec3], d: Definiteness) -> nalgebra:
     k
 }
 
-fn check_stiffness_symmetric_and_projected_psd(model: &Model, seed: u64) {
-    let (mut body, states) = body_states(seed);
+fn check_stiffness_symmetric_and_projected_psd(model: &Model, seed: u64, quadratic: bool) {
+    let (mut body, states) = body_states(seed, quadratic);
     body.model = *model;
     let mut rng = rng(seed + 3);
     for (name, x) in states {
@@ -414,15 +422,27 @@ macro_rules! material_tests {
                 }
                 #[test]
                 fn body_energy_to_forces_matches_finite_differences() {
-                    check_body_energy_to_forces(&model(), $seed + 70);
+                    check_body_energy_to_forces(&model(), $seed + 70, false);
+                }
+                #[test]
+                fn quadratic_body_energy_to_forces_matches_finite_differences() {
+                    check_body_energy_to_forces(&model(), $seed + 75, true);
                 }
                 #[test]
                 fn body_forces_to_stiffness_matches_finite_differences() {
-                    check_body_forces_to_stiffness(&model(), $seed + 80);
+                    check_body_forces_to_stiffness(&model(), $seed + 80, false);
+                }
+                #[test]
+                fn quadratic_body_forces_to_stiffness_matches_finite_differences() {
+                    check_body_forces_to_stiffness(&model(), $seed + 85, true);
                 }
                 #[test]
                 fn stiffness_symmetric_and_projected_psd() {
-                    check_stiffness_symmetric_and_projected_psd(&model(), $seed + 90);
+                    check_stiffness_symmetric_and_projected_psd(&model(), $seed + 90, false);
+                }
+                #[test]
+                fn quadratic_stiffness_symmetric_and_projected_psd() {
+                    check_stiffness_symmetric_and_projected_psd(&model(), $seed + 95, true);
                 }
                 #[test]
                 fn uniaxial_stress_matches_analytic() {
@@ -471,8 +491,8 @@ fn recovery_forms_match_finite_differences() {
             check_projected_psd(&model, seed + 3);
             check_projected_equals_exact_near_rest(&model, seed + 4);
             check_finite_everywhere(&model, seed + 5);
-            check_body_energy_to_forces(&model, seed + 6);
-            check_body_forces_to_stiffness(&model, seed + 7);
+            check_body_energy_to_forces(&model, seed + 6, false);
+            check_body_forces_to_stiffness(&model, seed + 7, false);
             seed += 10;
         }
     }

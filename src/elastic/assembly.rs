@@ -13,12 +13,12 @@ use super::*;
 #[derive(Clone, Debug, Default)]
 pub struct AssemblyWork {
     /// Rows per chunk.
-    chunk_rows: usize,
+    pub(super) chunk_rows: usize,
     /// The number of rows and tets the lists were made for.
-    made_for: (usize, usize),
+    pub(super) made_for: (usize, usize),
     /// Chunk c's tets are `tets[tet_start[c]..tet_start[c + 1]]`, in increasing order.
-    tet_start: Vec<u32>,
-    tets: Vec<u32>,
+    pub(super) tet_start: Vec<u32>,
+    pub(super) tets: Vec<u32>,
 }
 
 impl AssemblyWork {
@@ -29,7 +29,7 @@ impl AssemblyWork {
     }
 
     /// Lay out the work for `tets` on `rows` rows.
-    fn prepare(&mut self, tets: &[[usize; 4]], rows: usize) {
+    pub(super) fn prepare<const N: usize>(&mut self, tets: &[[usize; N]], rows: usize) {
         // Two chunks per thread, at least 256 rows each: few chunks keep the tets computed
         // twice few (a tet straddles chunks only near their borders: on the bench beam's
         // lattice order, 19 % of the tets at n = 20 with four chunks, 37 % with eight), two
@@ -41,7 +41,7 @@ impl AssemblyWork {
         let chunks = rows.div_ceil(chunk_rows).max(1);
         let mut count = vec![0u32; chunks + 1];
         let mut seen = vec![u32::MAX; chunks];
-        let chunks_of = |t: usize, tet: &[usize; 4], seen: &mut [u32], f: &mut dyn FnMut(usize)| {
+        let chunks_of = |t: usize, tet: &[usize; N], seen: &mut [u32], f: &mut dyn FnMut(usize)| {
             for &v in tet {
                 let c = v / chunk_rows;
                 if seen[c] != t as u32 {
@@ -79,6 +79,9 @@ impl AssemblyWork {
 impl ElasticBody {
     /// The pattern of the assembled stiffness (vertex adjacency).
     pub fn stiffness_pattern(&self) -> BlockPattern {
+        if let Some(q) = self.quadratic() {
+            return BlockPattern::from_tets(self.vertex_count(), &q.nodes);
+        }
         BlockPattern::from_tets(self.vertex_count(), &self.mesh.tets)
     }
 
@@ -122,6 +125,9 @@ impl ElasticBody {
         overwrite: bool,
     ) {
         assert_eq!(a.rows(), self.vertex_count());
+        if let Some(q) = self.quadratic() {
+            return self.quadratic_write_stiffness(q, lin, scale, a, work, overwrite);
+        }
         let tets = &self.mesh.tets;
         if work.made_for != (a.rows(), tets.len()) {
             work.prepare(tets, a.rows());

@@ -37,7 +37,17 @@ impl ElasticBody {
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(damping.velocities.len(), self.vertex_count());
         assert_eq!(kv.len(), self.vertex_count());
-        assert_eq!(lin.tangents.len(), self.tet_count());
+        assert_eq!(lin.tangents.len(), self.point_count());
+        if let Some(q) = self.quadratic() {
+            self.quadratic_damped_forces_into(q, x, damping, lin, forces, kv);
+            let shifted = damping.shift != 0.0;
+            lin.tangents_pending = shifted;
+            if !shifted {
+                lin.exact_active = false;
+                lin.count_tets();
+            }
+            return lin.chunk_energy.iter().sum();
+        }
         if lin.damping.len() != self.tet_count() {
             lin.damping = vec![[Vec3::zeros(); 3]; self.tet_count()];
         }
@@ -117,6 +127,13 @@ impl ElasticBody {
         }
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(damping.velocities.len(), self.vertex_count());
+        if let Some(q) = self.quadratic() {
+            self.quadratic_damped_tangents_into(q, x, damping, lin);
+            lin.tangents_pending = false;
+            lin.exact_active = false;
+            lin.count_tets();
+            return;
+        }
         let how = damping.tangent(lin.definiteness);
         // G = F + θ·dF_v of tet t; its SVDs are made in batches.
         let g_of = |t: usize| {
@@ -152,7 +169,7 @@ impl ElasticBody {
 
 /// `adaptive`'s alternate pieces by chunks of [`CHUNK`] tets, or `None` for every chunk of
 /// `tets` when the strategy keeps none (`alternate` empty): one loop serves both.
-fn alternate_chunks(
+pub(super) fn alternate_chunks(
     alternate: &mut [DiagonalPieces],
     tets: usize,
 ) -> impl IndexedParallelIterator<Item = Option<&mut [DiagonalPieces]>> {

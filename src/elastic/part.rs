@@ -67,6 +67,7 @@ impl ElasticBody {
             mass: vec![0.0; vertices.len()],
             incidence,
             recovery: self.recovery.part(tets),
+            quadratic: None,
         }
     }
 
@@ -108,6 +109,7 @@ impl ElasticBody {
             volume: pieces.volume,
             mass: pieces.mass,
             incidence,
+            quadratic: None,
         })
     }
 }

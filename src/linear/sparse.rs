@@ -28,7 +28,7 @@ pub struct BlockPattern {
 
 impl BlockPattern {
     /// The vertex-adjacency pattern of a tet mesh: i and j couple when a tet holds both.
-    pub fn from_tets(vertex_count: usize, tets: &[[usize; 4]]) -> Self {
+    pub fn from_tets<const N: usize>(vertex_count: usize, tets: &[[usize; N]]) -> Self {
         let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); vertex_count];
         for tet in tets {
             for &a in tet {

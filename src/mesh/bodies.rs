@@ -45,6 +45,9 @@ impl Bodies {
             merged
                 .tets
                 .extend(mesh.tets.iter().map(|t| t.map(|v| v + v0)));
+            merged
+                .edge_nodes
+                .extend(mesh.edge_nodes.iter().map(|e| e.map(|v| v + v0)));
             for g in mesh.groups {
                 let shifted = Group {
                     vertices: g.vertices.iter().map(|v| v + v0).collect(),

@@ -260,6 +260,13 @@ impl Driver for MpiDriver {
 /// METIS's partition of `mesh` over `ranks` (recursive coordinate bisection instead when
 /// `TETSIM_PARTITIONER=rcb`, for comparisons: see docs/scaling.md).
 fn partition(mesh: &crate::mesh::TetMesh, ranks: usize) -> Result<Partition, String> {
+    if mesh.is_quadratic() {
+        return Err(
+            "quadratic tets ([mesh] order = 2 or a 10-node mesh file) run on one \
+                    process for now: run without mpirun"
+                .to_string(),
+        );
+    }
     if std::env::var("TETSIM_PARTITIONER").is_ok_and(|p| p == "rcb") {
         return Ok(Partition::new(mesh, ranks));
     }

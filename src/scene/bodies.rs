@@ -7,6 +7,7 @@ use crate::math::Vec3;
 use crate::mesh::TetMesh;
 use crate::mesh::bodies::{Bodies, Placement};
 use crate::mesh::ordering::Renumbering;
+use crate::mesh::quadratic::elevate;
 
 use super::locate::key;
 use super::schema::{MaterialSpec, Scene};
@@ -96,6 +97,11 @@ impl Scene {
         let names = body_names(self);
         let first = self.build_mesh()?;
         if self.body.is_empty() {
+            let first = if self.mesh.element_order() == 2 {
+                elevate(&first)
+            } else {
+                first
+            };
             let bodies = Bodies::single(names[0].clone(), &first);
             return Ok((first, bodies));
         }
@@ -118,6 +124,12 @@ impl Scene {
             }
             .apply(&mut mesh);
             parts.push((names[i + 1].clone(), mesh));
+        }
+        // One order for the whole mesh: quadratic when asked or when any file is.
+        if self.mesh.element_order() == 2 || parts.iter().any(|(_, m)| m.is_quadratic()) {
+            for (_, mesh) in &mut parts {
+                *mesh = elevate(mesh);
+            }
         }
         Ok(Bodies::merge(parts))
     }

@@ -398,17 +398,28 @@ impl Scene {
             None => state.x.clone(),
         };
         let mut v = vec![Vec3::zeros(); x.len()];
+        // A mesh elevated to quadratic tets takes the positions of its file's vertices (its
+        // corners, listed first): the mid-edge nodes then start halfway along their edges.
+        let mut corners_only = false;
         if let Some(file) = &self.initial.positions {
             let first = bodies.vertices(0);
-            let mut given = crate::io::read_positions(&self.resolve(file), first.len())
-                .map_err(|e| self.unreadable(&key!["initial", "positions"], e))?;
+            let path = self.resolve(file);
+            let corners = self.elevated_corners(body, renumbering, first.clone());
+            let mut given = match crate::io::read_positions(&path, first.len()) {
+                Err(e) if corners < first.len() => {
+                    corners_only = true;
+                    crate::io::read_positions(&path, corners).map_err(|_| e)
+                }
+                read => read,
+            }
+            .map_err(|e| self.unreadable(&key!["initial", "positions"], e))?;
             // In the mesh file's unit, like the mesh it lists the vertices of.
             if let Some(unit) = self.length_unit(&self.mesh, &key!["mesh"])? {
                 for p in &mut given {
                     *p = p.map(|c| unit.to_si(c));
                 }
             }
-            x[first].copy_from_slice(&given);
+            x[first.start..first.start + given.len()].copy_from_slice(&given);
         }
         for b in 0..bodies.count() {
             let velocity = self.body_velocity(b);
@@ -418,7 +429,42 @@ impl Scene {
             Some(r) => (r.to_new(&x), r.to_new(&v)),
             None => (x, v),
         };
+        if corners_only {
+            let mesh = &body.mesh;
+            let first = bodies.vertices(0);
+            let input = |n: usize| renumbering.map_or(n, |r| r.vertex_old[n]);
+            for (t, tet) in mesh.tets.iter().enumerate() {
+                for (k, [i, j]) in crate::mesh::quadratic::EDGES.iter().enumerate() {
+                    let n = mesh.edge_nodes[t][k];
+                    if first.contains(&input(n)) {
+                        state.x[n] = 0.5 * (state.x[tet[*i]] + state.x[tet[*j]]);
+                    }
+                }
+            }
+        }
         Ok(state)
+    }
+
+    /// How many of body 0's vertices (input range `first`) are corners of a mesh elevated to
+    /// quadratic tets: all of them when the mesh is linear or was read quadratic.
+    fn elevated_corners(
+        &self,
+        body: &ElasticBody,
+        renumbering: Option<&Renumbering>,
+        first: std::ops::Range<usize>,
+    ) -> usize {
+        if self.mesh.element_order() != 2 {
+            return first.len();
+        }
+        let mut corner = vec![false; body.vertex_count()];
+        for &v in body.mesh.tets.iter().flatten() {
+            corner[v] = true;
+        }
+        let corner = match renumbering {
+            Some(r) => r.vertices_to_old(&corner),
+            None => corner,
+        };
+        first.filter(|&v| corner[v]).count()
     }
 }
 

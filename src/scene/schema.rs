@@ -145,6 +145,11 @@ pub struct MeshSpec {
     /// "random" (the worst case, for benchmarks).
     #[serde(default)]
     pub reorder: VertexOrder,
+    /// Element order: 1 (linear tets, the default) or 2 (quadratic tets: a node on every edge,
+    /// elements that bend without locking). A mesh file of 10-node tets is quadratic whatever
+    /// this says. Top-level `[mesh]` only: it applies to every body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<u8>,
     /// The body's name in messages, outputs and `body = "..."` keys (top-level `[mesh]` only).
     /// Default "body0".
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -154,6 +159,13 @@ pub struct MeshSpec {
     /// Outputs stay SI. A generator's `min` and `max` take units in their own values instead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,
+}
+
+impl MeshSpec {
+    /// The element order asked for: 1 (the default) or 2.
+    pub fn element_order(&self) -> u8 {
+        self.order.unwrap_or(1)
+    }
 }
 
 /// `[[probe]]`: a rest position whose displacement (interpolated linearly in the tet holding

@@ -217,6 +217,15 @@ impl Validator<'_> {
 
     /// A `[mesh]` or a `[[body]]`'s `mesh` (at `at`).
     fn mesh(&mut self, at: &[Seg], mesh: &MeshSpec) {
+        if !matches!(mesh.element_order(), 1 | 2) {
+            self.fail(
+                &join(at, &key!["order"]),
+                format!(
+                    "must be 1 (linear tets) or 2 (quadratic tets), got {}",
+                    mesh.element_order()
+                ),
+            );
+        }
         match (&mesh.file, &mesh.generator) {
             (Some(_), Some(_)) => self.fail(
                 &join(at, &key!["generator"]),
@@ -496,6 +505,12 @@ impl Validator<'_> {
                 );
             }
             self.mesh(&at("mesh"), &b.mesh);
+            if b.mesh.element_order() != 1 {
+                self.fail(
+                    &join(&base, &key!["mesh", "order"]),
+                    "the element order applies to every body: set it in [mesh]",
+                );
+            }
             let m = &b.material;
             self.elastic(
                 &at("material"),

@@ -130,6 +130,32 @@ pub fn small_mesh(rng: &mut ChaCha8Rng) -> TetMesh {
     mesh
 }
 
+/// A quadratic mesh with each mid-edge node moved off its edge by up to 4 % of the edge's
+/// length: curved elements, still sound.
+pub fn curved(rng: &mut ChaCha8Rng, mesh: &TetMesh) -> TetMesh {
+    let mut mesh = mesh.clone();
+    let mut moved = vec![false; mesh.positions.len()];
+    for t in 0..mesh.tets.len() {
+        for (k, [i, j]) in tetsim::mesh::quadratic::EDGES.iter().enumerate() {
+            let n = mesh.edge_nodes[t][k];
+            if moved[n] {
+                continue;
+            }
+            moved[n] = true;
+            let length =
+                (mesh.positions[mesh.tets[t][*i]] - mesh.positions[mesh.tets[t][*j]]).norm();
+            mesh.positions[n] += 0.04
+                * length
+                * Vec3::new(
+                    uniform(rng, -1.0, 1.0),
+                    uniform(rng, -1.0, 1.0),
+                    uniform(rng, -1.0, 1.0),
+                );
+        }
+    }
+    mesh
+}
+
 /// Positions: rest plus a random displacement of size `amount` (relative to edge length 1).
 pub fn perturbed(rng: &mut ChaCha8Rng, rest: &[Vec3], amount: f64) -> Vec<Vec3> {
     rest.iter()

@@ -146,8 +146,21 @@ pub fn check_damping_is_strategy_free(model: &Model, seed: u64) {
 /// Jacobian of the damped step's residual `f_el(x) − γ·K_d(x)·(x − xₙ)/h` to second order.
 #[test]
 fn body_damping_force_and_tangent_match_finite_differences() {
+    check_body_damping(false);
+}
+
+/// The same on curved quadratic tets.
+#[test]
+fn quadratic_body_damping_force_and_tangent_match_finite_differences() {
+    check_body_damping(true);
+}
+
+fn check_body_damping(quadratic: bool) {
     let mut rng = rng(77);
-    let mesh = small_mesh(&mut rng);
+    let mut mesh = small_mesh(&mut rng);
+    if quadratic {
+        mesh = curved(&mut rng, &tetsim::mesh::quadratic::elevate(&mesh));
+    }
     let body = ElasticBody::new(mesh, Model::new(ModelKind::NeoHookean, lame()), 1000.0).unwrap();
     let n = body.vertex_count();
     let x = perturbed(&mut rng, &body.mesh.positions, 0.15);
@@ -221,8 +234,11 @@ fn body_damping_force_and_tangent_match_finite_differences() {
         });
         errors.push(err);
     }
-    // θ·|v| shrinks tenfold: a second-order error shrinks about a hundredfold.
-    assert!(errors[0] < 1e-2, "{errors:?}");
+    // θ·|v| shrinks tenfold: a second-order error shrinks about a hundredfold. (A random
+    // velocity field varies faster over quadratic tets, whose shape gradients at mid-edge nodes
+    // are up to four times a corner's, so the shift θ·dF_v is larger there.)
+    let first = if quadratic { 0.1 } else { 1e-2 };
+    assert!(errors[0] < first, "{errors:?}");
     assert!(
         errors[1] <= 0.05 * errors[0],
         "not second order: {errors:?}"
