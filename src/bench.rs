@@ -34,6 +34,8 @@ pub struct BenchParams {
     pub solver_overrides: String,
     /// Internal vertex order (`[mesh] reorder`); `random` measures a badly numbered mesh.
     pub reorder: VertexOrder,
+    /// Element order of the beam workload (`[mesh] order`): 1 (linear tets) or 2 (quadratic).
+    pub order: u8,
     /// The contact workload: the same beam drooping onto a ground plane 0.5 mm below it
     /// (friction 0.3), contact active from the first frame.
     pub contact: bool,
@@ -84,6 +86,7 @@ impl Default for BenchParams {
             repeats: 3,
             solver_overrides: String::new(),
             reorder: VertexOrder::default(),
+            order: 1,
             contact: false,
             workload: Workload::Beam,
         }
@@ -224,6 +227,8 @@ pub struct BenchReport {
     pub solver_overrides: String,
     /// The vertex order used.
     pub reorder: VertexOrder,
+    /// The element order of the beam (1 or 2).
+    pub order: u8,
     /// The scene timed.
     pub workload: Workload,
 }
@@ -234,6 +239,7 @@ pub fn workload_scene(
     frames: usize,
     solver_overrides: &str,
     reorder: VertexOrder,
+    order: u8,
 ) -> Result<Scene> {
     let text = format!(
         r#"
@@ -241,6 +247,7 @@ gravity = [0.0, -9.81, 0.0]
 [mesh]
 generator = {{ box = {{ min = [0.0, 0.0, 0.0], max = [4.0, 1.0, 1.0], cells = [{}, {n}, {n}] }} }}
 reorder = "{}"
+order = {order}
 [material]
 model = "neo-hookean"
 youngs_modulus = 1.0e6
@@ -464,8 +471,13 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
     for &n in &params.sizes {
         let scene = match params.workload {
             Workload::Beam => {
-                let scene =
-                    workload_scene(n, params.frames, &params.solver_overrides, params.reorder)?;
+                let scene = workload_scene(
+                    n,
+                    params.frames,
+                    &params.solver_overrides,
+                    params.reorder,
+                    params.order,
+                )?;
                 if params.contact {
                     with_ground(scene)?
                 } else {
@@ -578,6 +590,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
         sizes,
         solver_overrides: params.solver_overrides.clone(),
         reorder: params.reorder,
+        order: params.order,
         workload: params.workload,
     })
 }
@@ -621,11 +634,16 @@ impl BenchReport {
     /// The human-readable table.
     pub fn table(&self) -> String {
         let mut s = format!(
-            "tetsim {} bench, {} threads, STREAM triad {:.1} GB/s, vertex order {}{}\n",
+            "tetsim {} bench, {} threads, STREAM triad {:.1} GB/s, vertex order {}{}{}\n",
             self.version,
             self.threads,
             self.stream_triad_gb_per_s,
             self.reorder.name(),
+            if self.order == 2 {
+                ", quadratic tets"
+            } else {
+                ""
+            },
             if self.solver_overrides.trim().is_empty() {
                 String::new()
             } else {
@@ -735,7 +753,7 @@ mod tests {
     #[test]
     fn tip_is_the_far_face_mean_displacement() {
         let tip_after = |frames: usize, reorder: VertexOrder| {
-            let scene = workload_scene(2, frames.max(1), "", reorder).unwrap();
+            let scene = workload_scene(2, frames.max(1), "", reorder, 1).unwrap();
             let mut sim = Simulation::from_scene(&scene).unwrap();
             for _ in 0..frames {
                 sim.step().unwrap();
@@ -744,7 +762,7 @@ mod tests {
         };
         assert_eq!(tip_after(0, VertexOrder::default()), [0.0; 3]);
         // Every part the phase byte model reads is in the workload's inventory.
-        let scene = workload_scene(2, 1, "", VertexOrder::default()).unwrap();
+        let scene = workload_scene(2, 1, "", VertexOrder::default(), 1).unwrap();
         let mut sim = Simulation::from_scene(&scene).unwrap();
         sim.step().unwrap();
         let memory = sim.memory_inventory();

@@ -168,12 +168,21 @@ pub fn locking_warning(body: &ElasticBody) -> Option<String> {
     let ratio = lambda / mu;
     (mu > 0.0 && ratio > LOCKING_RATIO).then(|| {
         let nu = lambda / (2.0 * (lambda + mu));
-        format!(
-            "the material is nearly incompressible (ν = {nu:.7}, λ/μ = {ratio:.1e}): linear tets \
-             lock (the body bends far too little) and Newton stiffens (many iterations, slow CG, \
-             frames that may not converge). Use poisson_ratio = 0.45-0.49 unless volume must be \
-             kept exactly; if so, expect it to be slow and raise substeps"
-        )
+        if body.mesh.is_quadratic() {
+            format!(
+                "the material is nearly incompressible (ν = {nu:.7}, λ/μ = {ratio:.1e}): \
+                 quadratic tets bend right, but Newton stiffens (many iterations, slow CG); \
+                 expect it to be slow, raise substeps if frames do not converge"
+            )
+        } else {
+            format!(
+                "the material is nearly incompressible (ν = {nu:.7}, λ/μ = {ratio:.1e}): linear \
+                 tets lock (the body bends far too little) and Newton stiffens (many iterations, \
+                 slow CG, frames that may not converge). Set [mesh] order = 2 (quadratic tets, \
+                 which do not lock), or use poisson_ratio = 0.45-0.49 unless volume must be \
+                 kept exactly"
+            )
+        }
     })
 }
 

@@ -1,9 +1,9 @@
 //! Probes and reactions (SPEC §13): numbers a run records every frame besides its frames, for
 //! force-displacement curves without post-processing the VTU files.
 //!
-//! - A [`Probe`] is a rest position inside the mesh: its displacement is interpolated linearly
-//!   (the tets' own shape functions) from the four vertices of the tet that holds it, so a probe
-//!   on a vertex reports that vertex's displacement. It goes to `probes.csv`.
+//! - A [`Probe`] is a rest position inside the mesh: its displacement is interpolated with the
+//!   tets' own shape functions (linear over four vertices, quadratic over ten nodes) in the tet
+//!   that holds it, so a probe on a node reports that node's displacement. It goes to `probes.csv`.
 //! - A [`ReactionGroup`] is a named `[[fixed]]` entry: the total force its constraint exerts on
 //!   the body, Σ −f over its constrained components, where f is the sum of every force of the
 //!   step's equation there (inertia `M(vⁿ − v)/h − αMv`, elasticity with its damping `−γKv`,
@@ -90,10 +90,21 @@ impl Probe {
         }
     }
 
-    /// The displacement at the probe, m: Σ λᵢ (xᵢ − Xᵢ) over its tet's vertices.
+    /// The displacement at the probe, m: Σ λᵢ (xᵢ − Xᵢ) over its tet's vertices, or over the
+    /// ten nodes of a quadratic tet with its shape functions at λ (λ located in the straight
+    /// tet of its corners).
     pub fn displacement(&self, body: &ElasticBody, x: &[Vec3]) -> Vec3 {
         let tet = body.mesh.tets[self.tet];
         let rest = &body.mesh.positions;
+        if body.mesh.is_quadratic() {
+            let n = crate::elastic::quadratic::shape_values(self.weights);
+            return body
+                .mesh
+                .quadratic_nodes(self.tet)
+                .iter()
+                .zip(n)
+                .fold(Vec3::zeros(), |u, (&v, w)| u + w * (x[v] - rest[v]));
+        }
         tet.iter()
             .zip(self.weights)
             .fold(Vec3::zeros(), |u, (&v, w)| u + w * (x[v] - rest[v]))

@@ -14,6 +14,9 @@ mod schemes;
 #[path = "simulate/added_term.rs"]
 mod added_term;
 
+#[path = "simulate/quadratic.rs"]
+mod quadratic;
+
 use common::{Collapse, carved_ball, rigid_distance};
 
 use std::path::Path;

@@ -25,6 +25,10 @@ pub struct BenchArgs {
     /// or random (a shuffled mesh: what a badly numbered input costs).
     #[arg(long, default_value = "auto", value_parser = parse_order)]
     pub reorder: VertexOrder,
+    /// Element order of the beam: 1 (linear tets) or 2 (quadratic tets; `--sizes 6` has the
+    /// nodes of linear `--sizes 12`, for comparisons per degree of freedom).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub order: u8,
     /// The contact workload: the beam droops onto a ground plane (IPC barrier, friction 0.3);
     /// compare with the same sizes without it for the cost of contact.
     #[arg(long)]
@@ -54,6 +58,7 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         repeats: args.repeats,
         solver_overrides: args.solver,
         reorder: args.reorder,
+        order: args.order,
         contact: args.contact,
         workload: args.workload,
     };
