@@ -155,9 +155,12 @@ pub fn from_reals<'py>(
 }
 
 /// Tets as an (m, 4) int64 array.
-pub fn from_tets<'py>(py: Python<'py>, tets: &[[usize; 4]]) -> PyResult<Bound<'py, PyAny>> {
+pub fn from_tets<'py, const N: usize>(
+    py: Python<'py>,
+    tets: &[[usize; N]],
+) -> PyResult<Bound<'py, PyAny>> {
     let flat: Vec<i64> = tets.iter().flatten().map(|&v| v as i64).collect();
-    shaped(py, flat, &[tets.len(), 4])
+    shaped(py, flat, &[tets.len(), N])
 }
 
 /// Indices as an (n,) int64 array.

@@ -10,7 +10,8 @@ use tetsim::mesh::Group;
 use crate::arrays;
 use crate::errors::{LibResult, argument};
 
-/// A tet mesh read from a file: vertices (n, 3) float64, tets (m, 4) int64, groups (dict: name
+/// A tet mesh read from a file: vertices (n, 3) float64, tets (m, 4) int64 ((m, 10) for 10-node
+/// tets: corners, then the nodes on edges 01, 12, 02, 03, 13, 23), groups (dict: name
 /// → sorted vertex ids, int64), tet_groups (dict: name → tet ids, for volume groups), format.
 #[pyclass(module = "tetsim", frozen, get_all)]
 pub struct Mesh {
@@ -70,7 +71,14 @@ pub fn read_mesh(py: Python<'_>, path: PathBuf, force: bool) -> PyResult<Mesh> {
     }
     Ok(Mesh {
         vertices: arrays::from_vec3s(py, &mesh.positions)?.unbind(),
-        tets: arrays::from_tets(py, &mesh.tets)?.unbind(),
+        tets: if mesh.is_quadratic() {
+            let nodes: Vec<[usize; 10]> = (0..mesh.tets.len())
+                .map(|t| mesh.quadratic_nodes(t))
+                .collect();
+            arrays::from_tets(py, &nodes)?.unbind()
+        } else {
+            arrays::from_tets(py, &mesh.tets)?.unbind()
+        },
         groups: groups.unbind(),
         tet_groups: tet_groups.unbind(),
         format: read.report.format,

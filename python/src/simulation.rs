@@ -187,11 +187,15 @@ impl Simulation {
         arrays::from_vec3s(py, &sim.to_input_order(&sim.body.mesh.positions))
     }
 
-    /// The tets: (m, 4) int64 vertex indices into positions.
+    /// The tets: (m, 4) int64 vertex indices into positions; (m, 10) for quadratic tets
+    /// (corners, then the nodes on edges 01, 12, 02, 03, 13, 23).
     #[getter]
     fn tets<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let sim = self.lock();
-        arrays::from_tets(py, &sim.input_tets())
+        match sim.input_quadratic_tets() {
+            Some(tets) => arrays::from_tets(py, &tets),
+            None => arrays::from_tets(py, &sim.input_tets()),
+        }
     }
 
     /// Time, s (quasistatic: the load factor, 0 to 1).

@@ -217,3 +217,25 @@ def test_a_python_run_is_resumed_by_the_command_line(tmp_path, tetsim_bin):
     assert code == 0, err
     for name in ["frame_0004.vtu", "frame_0005.vtu"]:
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+
+
+def test_quadratic_tets_give_ten_nodes_per_tet(tmp_path):
+    """`order = 2` from a dict: tets of width 10 whose last six nodes sit at their edges'
+    midpoints at rest; the beam bends further than with linear tets on the same cells; every
+    node moves."""
+    values = box_scene()
+    values["mesh"]["order"] = 2
+    sim = tetsim.Simulation(tetsim.Scene.from_dict(values))
+    tets, rest = sim.tets, sim.rest_positions
+    assert tets.shape == (6 * 6 * 2 * 2, 10)
+    edges = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
+    for k, (i, j) in enumerate(edges):
+        middle = 0.5 * (rest[tets[:, i]] + rest[tets[:, j]])
+        assert np.abs(rest[tets[:, 4 + k]] - middle).max() < 1e-12
+    linear = tetsim.Simulation(tetsim.Scene.from_dict(box_scene()))
+    sim.run(tmp_path / "quadratic")
+    linear.run(tmp_path / "linear")
+    sag = rest[:, 1].max() - sim.positions[:, 1].min()
+    sag_linear = linear.rest_positions[:, 1].max() - linear.positions[:, 1].min()
+    assert sag > 1.05 * sag_linear, (sag, sag_linear)
+    assert np.all(np.linalg.norm(sim.positions - rest, axis=1)[rest[:, 0] > 0.1] > 0)

@@ -39,6 +39,24 @@ impl Simulation {
         }
     }
 
+    /// The ten nodes of each quadratic tet in input numbering and order (corners, then the
+    /// nodes on edges 01, 12, 02, 03, 13, 23); None for linear tets.
+    pub fn input_quadratic_tets(&self) -> Option<Vec<[usize; 10]>> {
+        let mesh = &self.body.mesh;
+        if !mesh.is_quadratic() {
+            return None;
+        }
+        let mut tets = vec![[0; 10]; mesh.tets.len()];
+        for t in 0..mesh.tets.len() {
+            let nodes = mesh.quadratic_nodes(t);
+            match &self.renumbering {
+                Some(r) => tets[r.tet_old[t]] = nodes.map(|v| r.vertex_old[v]),
+                None => tets[t] = nodes,
+            }
+        }
+        Some(tets)
+    }
+
     /// Move every vertex to `x` (input numbering), as `[initial] positions` would: one finite
     /// position per vertex, and none inside an obstacle when contact is on. The next step
     /// starts from here; constrained components are set by their constraint again at that
