@@ -117,6 +117,8 @@ pub struct SceneInfo {
     pub vertices: usize,
     /// Tets.
     pub tets: usize,
+    /// Nodes per tet: 4, or 10 for quadratic tets.
+    pub nodes_per_tet: usize,
     /// Σ ρW, kg.
     pub mass: f64,
     /// Σ W, m³.
@@ -254,6 +256,7 @@ pub fn describe(scene: &Scene, sim: &Simulation) -> SceneInfo {
     SceneInfo {
         vertices: body.vertex_count(),
         tets: body.tet_count(),
+        nodes_per_tet: body.mesh.nodes_per_tet(),
         mass: body.masses().iter().sum(),
         volume: body.volumes().iter().sum(),
         bounding_box: (lo, hi),
@@ -520,7 +523,16 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let (lo, hi) = info.bounding_box;
-    let _ = writeln!(s, "mesh: {} vertices, {} tets", info.vertices, info.tets);
+    let kind = if info.nodes_per_tet == 10 {
+        " (quadratic, 10 nodes each)"
+    } else {
+        ""
+    };
+    let _ = writeln!(
+        s,
+        "mesh: {} vertices, {} tets{kind}",
+        info.vertices, info.tets
+    );
     let _ = writeln!(
         s,
         "bounding box: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}] m",
