@@ -20,7 +20,7 @@ use tetsim::diagnose::{RunSummary, folded_finding, plausibility_warnings};
 use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
 use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
-use tetsim::runner::{Ending, Runner};
+use tetsim::runner::{CheckpointInterval, Ending, Runner};
 use tetsim::{Scene, Simulation, Vec3};
 
 /// Arguments of `tetsim run`.
@@ -120,6 +120,7 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     .named(&record.out);
     let mut runner = Runner::new(recorder)
         .with_checkpoint(record.clone())
+        .with_interval(CheckpointInterval::of(&scene))
         .with_stop(Arc::clone(&stop.flag));
     if checkpoint.is_none() {
         runner.save(&sim).context("writing the checkpoint")?;
