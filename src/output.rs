@@ -443,7 +443,9 @@ impl Recorder {
             "parameters": resolved_parameters(scene, sim)?,
             "info": self
                 .info
-                .get_or_insert_with(|| crate::info::describe(scene, sim).to_json()),
+                .get_or_insert_with(|| {
+                    crate::info::describe_with(scene, sim, crate::info::Effort::Bounded).to_json()
+                }),
             "outputs": { "files": collected, "frames": frames },
         });
         let mut manifest = manifest;
