@@ -22,6 +22,7 @@ use crate::io::{Field, atomic_write, write_pvd, write_vtu};
 use crate::math::Vec3;
 use crate::sim::Simulation;
 
+mod fields;
 mod frame;
 mod timings;
 

@@ -90,9 +90,7 @@ impl FrameTaker {
         let state_x = &sim.state.x;
         let mut x = state_x.clone();
         let mut v = sim.state.v.clone();
-        let mut j = body.jacobians(state_x);
-        let mut psi = body.energy_densities(state_x);
-        let mut von_mises = body.von_mises_stresses(state_x);
+        let (mut j, mut psi, mut von_mises) = super::fields::tet_fields(body, state_x);
         // How many components of each vertex are prescribed (0–3): lets `tetsim render` mark
         // fixed vertices from the frames alone.
         let mut fixed: Vec<f64> = sim.free_mask().iter().map(|m| 3.0 - m.sum()).collect();
