@@ -314,5 +314,6 @@ mod tests {
         }
         assert_eq!(gif_stride(3000, 1, 300), 11);
         assert_eq!(gif_stride(60, 1, 300), 1);
+        assert_eq!(gif_stride(3000, 1, 150), 21);
     }
 }

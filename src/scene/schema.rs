@@ -731,7 +731,7 @@ pub struct OutputSpec {
     /// Every k-th frame goes into the GIF (the last frame always does). Default 1.
     pub gif_stride: usize,
     /// The most frames the GIF holds: the stride grows past `gif_stride` as a long run needs
-    /// (0: no limit, every `gif_stride`-th frame). Default 300.
+    /// (0: no limit, every `gif_stride`-th frame). Default 150.
     pub gif_frames: usize,
     /// Wall-clock time between checkpoints, s: a frame finished this long after the last
     /// checkpoint writes `checkpoint.bin` (0: every frame). The first frame, the last and a
@@ -764,7 +764,7 @@ impl Default for OutputSpec {
             gif_width: 480,
             gif_height: 360,
             gif_stride: 1,
-            gif_frames: 300,
+            gif_frames: 150,
             checkpoint_every: 30.0,
             checkpoint_frames: 0,
             azimuth: -35.0,
