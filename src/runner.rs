@@ -233,6 +233,9 @@ fn frames(
             Err(Error::Interrupted { .. }) => break Ending::Interrupted,
             Err(error) => return Err(error),
         };
+        // The frame before this one is no longer the last complete frame: its state goes
+        // before this frame's is copied, so that at most one copy is held.
+        unsaved = None;
         if jobs
             .send(Job::Frame(Box::new(taker.take(sim, Some(&stats)))))
             .is_err()
@@ -243,7 +246,6 @@ fn frames(
             let state = sim.snapshot();
             let (frame, since) = saved_at;
             if interval.due(sim.frame() - frame, since.elapsed().as_secs_f64()) {
-                unsaved = None;
                 saved_at = (sim.frame(), Instant::now());
                 if jobs.send(Job::Checkpoint(Box::new(state))).is_err() {
                     return Ok(Ending::Interrupted);
