@@ -127,7 +127,8 @@ class Simulation:
         frame first), frames.pvd, surface_NNNN.obj, steps.csv, timings.csv, manifest.json.
         deterministic=True writes steps.csv's wall_seconds as 0 (like --deterministic).
 
-        A checkpoint.bin after every frame, as the command line writes: `tetsim run --resume
+        A checkpoint.bin as the command line writes it (at the first frame, every [output]
+        checkpoint_every of the run, at the end and on Ctrl-C): `tetsim run --resume
         out_dir --frames N` goes on with the run (with the scene's own motions and loads: steering
         done from Python between steps is not in the scene).
 

@@ -10,9 +10,11 @@
 //! same process.
 
 mod roofline;
+mod whole;
 
 pub use roofline::{cg_vector_bytes_per_vertex, phase_bytes_per_tet, stream_triad};
 use std::time::Instant;
+pub use whole::{WholeRun, whole_run};
 
 use serde::Serialize;
 
@@ -41,6 +43,8 @@ pub struct BenchParams {
     pub contact: bool,
     /// Which scene: the cantilever (default) or a Contact II workload.
     pub workload: Workload,
+    /// Also run each size once whole, with the default outputs (see [`whole_run`]).
+    pub whole: bool,
 }
 
 /// The scenes `tetsim bench` times.
@@ -89,6 +93,7 @@ impl Default for BenchParams {
             order: 1,
             contact: false,
             workload: Workload::Beam,
+            whole: true,
         }
     }
 }
@@ -157,6 +162,9 @@ pub struct SizeReport {
     /// Contact's costs, in the contact workload.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub contact: Option<ContactReport>,
+    /// The whole run with its outputs (pictures off), once.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub whole: Option<WholeRun>,
 }
 
 /// What contact cost in the first run of a size (the contact workload).
@@ -543,6 +551,16 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
                 seconds / params.frames as f64
             ));
         }
+        let whole = if params.whole {
+            let w = whole_run(&scene)?;
+            progress(&format!(
+                "n = {n}: whole run: {:.3} s/frame, {:.2}x its steps",
+                w.seconds_per_frame, w.ratio
+            ));
+            Some(w)
+        } else {
+            None
+        };
         let fastest = per_frame.iter().copied().fold(f64::INFINITY, f64::min);
         let seconds_per_frame = median(&mut per_frame);
         let cg_seconds = timings.cg;
@@ -581,6 +599,7 @@ pub fn run(params: &BenchParams, mut progress: impl FnMut(&str)) -> Result<Bench
             all_converged,
             factor,
             contact,
+            whole,
         });
     }
     Ok(BenchReport {
@@ -704,6 +723,13 @@ impl BenchReport {
                     .collect::<Vec<_>>()
                     .join(", ")
             ));
+            if let Some(w) = &r.whole {
+                s.push_str(&format!(
+                    "     whole run (outputs on, pictures off): {:.3} s/frame, {:.2}x its steps' {:.3}; set-up {:.2} s, frame 0 {:.2} s, manifest {:.2} s, loop {:.2} s, end {:.2} s\n",
+                    w.seconds_per_frame, w.ratio, w.step_seconds_per_frame, w.setup_seconds,
+                    w.first_frame_seconds, w.manifest_seconds, w.loop_seconds, w.finish_seconds
+                ));
+            }
             if let Some(f) = &r.factor {
                 s.push_str(&format!(
                     "     Cholesky: {:.2} factorizations/frame, {:.3} s each, symbolic {:.3} s, nnz(A upper) {}, nnz(L) {} ({:.1}×), {} failed\n",

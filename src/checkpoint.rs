@@ -120,20 +120,31 @@ pub struct RecorderState {
 }
 
 impl Checkpoint {
-    /// Write to `path` atomically.
+    /// Write to `path` atomically. The payload is encoded twice, once for its length and CRC
+    /// (which come before it) and once into the file, so that it is never held whole in memory
+    /// (43 MB at 192k tets).
     pub fn write(&self, path: &Path) -> Result<()> {
-        let payload = postcard::to_stdvec(self)
-            .map_err(|e| Error::parameter("checkpoint", format!("cannot encode: {e}")))?;
+        let encoding =
+            |e: postcard::Error| Error::parameter("checkpoint", format!("cannot encode: {e}"));
+        let summary = postcard::to_io(self, Summary::default()).map_err(encoding)?;
         let version = env!("CARGO_PKG_VERSION").as_bytes();
-        crate::io::atomic_write(path, |w| {
+        let mut failed = None;
+        let written = crate::io::atomic_write(path, |w| {
             w.write_all(MAGIC)?;
             w.write_all(&FORMAT_VERSION.to_le_bytes())?;
             w.write_all(&(version.len() as u16).to_le_bytes())?;
             w.write_all(version)?;
-            w.write_all(&(payload.len() as u64).to_le_bytes())?;
-            w.write_all(&crc32fast::hash(&payload).to_le_bytes())?;
-            w.write_all(&payload)
-        })
+            w.write_all(&summary.len.to_le_bytes())?;
+            w.write_all(&summary.crc.finalize().to_le_bytes())?;
+            postcard::to_io(self, w).map(|_| ()).map_err(|e| {
+                failed = Some(e);
+                std::io::Error::other("the checkpoint could not be encoded")
+            })
+        });
+        match failed {
+            Some(e) => Err(encoding(e)),
+            None => written,
+        }
     }
 
     /// Read and check `path`: refused (with the reason) when missing, of another format or
@@ -177,6 +188,25 @@ impl Checkpoint {
         }
         postcard::from_bytes(payload)
             .map_err(|e| refused(path, format!("the checkpoint cannot be decoded: {e}")))
+    }
+}
+
+/// The length and CRC-32 of what is written into it, keeping nothing else.
+#[derive(Default)]
+struct Summary {
+    len: u64,
+    crc: crc32fast::Hasher,
+}
+
+impl std::io::Write for Summary {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.crc.update(bytes);
+        self.len += bytes.len() as u64;
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
     }
 }
 
@@ -231,6 +261,23 @@ mod tests {
         let back = Checkpoint::read(&path).unwrap();
         assert_eq!(back, sample());
         assert_eq!(back.simulation.x[0][2].to_bits(), (-0.0f64).to_bits());
+    }
+
+    #[test]
+    fn the_streamed_file_is_the_header_then_the_payload_encoded_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(FILE_NAME);
+        sample().write(&path).unwrap();
+        let payload = postcard::to_stdvec(&sample()).unwrap();
+        let version = env!("CARGO_PKG_VERSION").as_bytes();
+        let mut expected = MAGIC.to_vec();
+        expected.extend(FORMAT_VERSION.to_le_bytes());
+        expected.extend((version.len() as u16).to_le_bytes());
+        expected.extend(version);
+        expected.extend((payload.len() as u64).to_le_bytes());
+        expected.extend(crc32fast::hash(&payload).to_le_bytes());
+        expected.extend(&payload);
+        assert_eq!(std::fs::read(&path).unwrap(), expected);
     }
 
     #[test]

@@ -56,6 +56,28 @@ const CONVERGED: f64 = 1e-4;
 /// 1e-10 on the 192k-tet bench beam.
 const SOLVE_TOLERANCE: f64 = 1e-4;
 
+/// How much work the frequency estimate may do.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Effort {
+    /// `tetsim info`: blocks until ω² changes by less than 1e-4 (at most [`MAX_ITERATIONS`]),
+    /// solves to [`SOLVE_TOLERANCE`].
+    #[default]
+    Converged,
+    /// A run's manifest, at a bounded cost: two blocks (so the last change is known), solves to
+    /// 1e-2 (still an upper bound; see docs/performance.md for its cost and accuracy).
+    Bounded,
+}
+
+impl Effort {
+    /// (blocks at most, CG's relative tolerance).
+    fn limits(self) -> (usize, f64) {
+        match self {
+            Effort::Converged => (MAX_ITERATIONS, SOLVE_TOLERANCE),
+            Effort::Bounded => (2, 1e-2),
+        }
+    }
+}
+
 /// A material's moduli and wave speeds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaterialInfo {
@@ -108,6 +130,8 @@ pub struct FrequencyEstimate {
     pub last_change: f64,
     /// Why there is no estimate, when there is none.
     pub note: Option<String>,
+    /// The work it was allowed.
+    pub effort: Effort,
 }
 
 /// Everything `tetsim info` reports.
@@ -200,6 +224,10 @@ impl SceneInfo {
                 "rigid": f.rigid,
                 "iterations": f.iterations,
                 "last_change": f.last_change,
+                "effort": match f.effort {
+                    Effort::Converged => "converged (to 1e-4 in ω²)",
+                    Effort::Bounded => "bounded (two blocks, solves to 1e-2)",
+                },
                 "note": f.note,
             },
             "dt": {
@@ -228,6 +256,11 @@ pub fn rest_moduli(model: &Model) -> (f64, f64) {
 
 /// Describe the simulation `sim` made from `scene`.
 pub fn describe(scene: &Scene, sim: &Simulation) -> SceneInfo {
+    describe_with(scene, sim, Effort::Converged)
+}
+
+/// [`describe`] with the frequency estimate's effort given.
+pub fn describe_with(scene: &Scene, sim: &Simulation, effort: Effort) -> SceneInfo {
     let body = &sim.body;
     let materials = materials(scene, body);
     let p_speed: Vec<f64> = (0..materials_len(body))
@@ -266,6 +299,7 @@ pub fn describe(scene: &Scene, sim: &Simulation) -> SceneInfo {
             &sim.boundary.free_mask(body.vertex_count()),
             &sim.params,
             shear / (hi - lo).norm(),
+            effort,
         ),
         materials,
         step,
@@ -339,7 +373,9 @@ fn lowest_frequency(
     free: &[Vec3],
     scene_params: &SolverParams,
     rate: f64,
+    effort: Effort,
 ) -> FrequencyEstimate {
+    let (max_iterations, solve_tolerance) = effort.limits();
     let n = body.vertex_count();
     if free.iter().all(|m| *m == Vec3::repeat(1.0)) {
         return FrequencyEstimate {
@@ -385,7 +421,7 @@ fn lowest_frequency(
     solver.prepare(&mut problem, free);
     let masses = body.masses();
     let cg = CgParams {
-        tolerance: SOLVE_TOLERANCE,
+        tolerance: solve_tolerance,
         max_iterations: scene_params.cg.max_iterations,
     };
     // Start: uniform body forces along x, y and z, each disturbed its own way.
@@ -400,10 +436,13 @@ fn lowest_frequency(
                 .collect()
         })
         .collect();
-    let mut estimate = FrequencyEstimate::default();
+    let mut estimate = FrequencyEstimate {
+        effort,
+        ..Default::default()
+    };
     let mut omega2 = f64::NAN;
     let mut b = vec![Vec3::zeros(); n];
-    for k in 1..=MAX_ITERATIONS {
+    for k in 1..=max_iterations {
         // W = (K + σM)⁻¹·M·U, one solve per column.
         let mut w = Vec::with_capacity(block.len());
         for u in &block {

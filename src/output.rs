@@ -22,8 +22,11 @@ use crate::io::{Field, atomic_write, write_pvd, write_vtu};
 use crate::math::Vec3;
 use crate::sim::Simulation;
 
+mod fields;
+mod frame;
 mod timings;
 
+pub use frame::{FrameData, FrameTaker};
 use timings::TimingsCsv;
 pub use timings::{CONTACT_TIMING_COLUMNS, TIMINGS_HEADER};
 
@@ -68,9 +71,6 @@ pub struct Recorder {
     write_obj: bool,
     deterministic: bool,
     surface: Vec<[usize; 3]>,
-    /// Whether `surface` names the input mesh's vertices (set at the first frame of a
-    /// simulation on a renumbered mesh).
-    surface_in_file_order: bool,
     pvd: Vec<(f64, String)>,
     csv: String,
     timings: TimingsCsv,
@@ -97,6 +97,8 @@ struct ContactOutput {
     moving: bool,
     /// `obstacles.pvd`'s entries.
     pvd: Vec<(f64, String)>,
+    /// The obstacles and their motions.
+    setup: ContactSetup,
 }
 
 impl Recorder {
@@ -107,7 +109,6 @@ impl Recorder {
             dir: dir.to_path_buf(),
             write_obj,
             surface: body.mesh.boundary_faces(),
-            surface_in_file_order: false,
             deterministic: false,
             pvd: Vec::new(),
             // The header waits for the first frame, which says whether contact is on.
@@ -284,114 +285,64 @@ impl Recorder {
     /// Write the current frame of `sim`: its VTU (and OBJ), then the updated PVD and steps.csv.
     /// `stats` is None for frame 0 (the initial state).
     pub fn write_frame(&mut self, sim: &Simulation, stats: Option<&StepStats>) -> Result<()> {
-        let frame = sim.frame();
-        let body = &sim.body;
-        let name = format!("frame_{frame:04}.vtu");
-        let mut x = sim.state.x.clone();
-        let mut v = sim.state.v.clone();
-        let mut rest = body.mesh.positions.clone();
-        let mut j = body.jacobians(&x);
-        let mut psi = body.energy_densities(&x);
-        let mut von_mises = body.von_mises_stresses(&x);
-        // How many components of each vertex are prescribed (0–3): lets `tetsim render` mark
-        // fixed vertices from the frames alone.
-        let mut fixed: Vec<f64> = sim.free_mask().iter().map(|m| 3.0 - m.sum()).collect();
-        let mut tets = body.mesh.tets.clone();
-        // A simulation on a renumbered mesh writes in the input mesh's numbering.
-        if let Some(r) = sim.renumbering() {
-            for field in [&mut x, &mut v, &mut rest] {
-                *field = r.vertices_to_old(field);
-            }
-            fixed = r.vertices_to_old(&fixed);
-            for field in [&mut j, &mut psi, &mut von_mises] {
-                *field = r.tets_to_old(field);
-            }
-            tets = r.tets_to_old_mesh(&tets);
-            if !self.surface_in_file_order {
-                self.surface =
-                    crate::mesh::TetMesh::new(rest.clone(), tets.clone()).boundary_faces();
-                self.surface_in_file_order = true;
-            }
-        }
-        let displacement: Vec<Vec3> = x.iter().zip(&rest).map(|(x, rest)| x - rest).collect();
         if self.csv.is_empty() {
             self.start(sim);
         }
+        self.write(FrameTaker::new(sim).take(sim, stats))
+    }
+
+    /// Whether the first frame (or a resume) has set the recorder up: only then can
+    /// [`Recorder::write`] take frames without the simulation.
+    pub fn is_started(&self) -> bool {
+        !self.csv.is_empty()
+    }
+
+    /// Write a frame taken from the simulation (see [`FrameTaker`]): its VTU (and OBJ, and the
+    /// obstacles' file), then the updated PVD, steps.csv, timings.csv and the probes' and
+    /// reactions' rows. The recorder must be started ([`Recorder::is_started`]).
+    pub fn write(&mut self, data: FrameData) -> Result<()> {
+        let frame = data.frame;
+        let name = format!("frame_{frame:04}.vtu");
         let mut point_data = vec![
-            ("displacement", Field::Vector(&displacement)),
-            ("velocity", Field::Vector(&v)),
-            ("fixed", Field::Scalar(&fixed)),
+            ("displacement", Field::Vector(&data.displacement)),
+            ("velocity", Field::Vector(&data.v)),
+            ("fixed", Field::Scalar(&data.fixed)),
         ];
-        let contact_force = self.contact.as_ref().map(|_| {
-            let f = sim.contact_forces();
-            let f = if f.len() == x.len() {
-                f.to_vec()
-            } else {
-                vec![Vec3::zeros(); x.len()]
-            };
-            match sim.renumbering() {
-                Some(r) => r.vertices_to_old(&f),
-                None => f,
-            }
-        });
-        if let Some(f) = &contact_force {
+        if let Some(f) = &data.contact_force {
             point_data.push(("contact_force", Field::Vector(f)));
         }
         let mut cell_data = vec![
-            ("J", Field::Scalar(&j)),
-            ("strain_energy_density", Field::Scalar(&psi)),
-            ("von_mises", Field::Scalar(&von_mises)),
+            ("J", Field::Scalar(&data.j)),
+            ("strain_energy_density", Field::Scalar(&data.psi)),
+            ("von_mises", Field::Scalar(&data.von_mises)),
         ];
         // Several bodies: which body each point and cell is (output order is body after body).
-        let bodies = sim.bodies();
-        let tags = (bodies.count() > 1).then(|| {
-            let as_f64 = |b: Vec<u32>| b.into_iter().map(f64::from).collect::<Vec<f64>>();
-            (as_f64(bodies.vertex_body()), as_f64(bodies.tet_body()))
-        });
-        if let Some((points, cells)) = &tags {
-            point_data.push(("body", Field::Scalar(points)));
-            cell_data.push(("body", Field::Scalar(cells)));
+        if let Some(tags) = &data.tags {
+            point_data.push(("body", Field::Scalar(&tags.0)));
+            cell_data.push(("body", Field::Scalar(&tags.1)));
         }
         let path = self.dir.join(&name);
-        write_vtu(&path, &x, &tets, &point_data, &cell_data)?;
+        write_vtu(&path, &data.x, &data.tets, &point_data, &cell_data)?;
         let mut files = vec![(name.clone(), crate::manifest::sha256_file(&path)?)];
         self.note(path);
         if self.write_obj {
             let obj = format!("surface_{frame:04}.obj");
             let path = self.dir.join(&obj);
-            write_obj(&path, &x, &self.surface)?;
+            write_obj(&path, &data.x, &self.surface)?;
             files.push((obj, crate::manifest::sha256_file(&path)?));
             self.note(path);
         }
-        if let Some(setup) = sim.contact_setup() {
-            self.write_obstacles(sim, setup, &mut files)?;
-        }
+        self.write_obstacles(frame, data.time, &data.obstacle_ramps, &mut files)?;
         self.frames.push(FrameFiles {
             frame,
-            time: sim.state.t,
+            time: data.time,
             files,
         });
-        self.pvd.push((sim.state.t, name));
+        self.pvd.push((data.time, name));
         let path = self.dir.join("frames.pvd");
         write_pvd(&path, &self.pvd)?;
         self.note(path);
-        let row = match stats {
-            Some(s) => s.clone(),
-            None => StepStats {
-                frame,
-                time: sim.state.t,
-                converged: true,
-                elastic_energy: body.energy(&sim.state.x),
-                kinetic_energy: sim.kinetic_energy(),
-                min_j: j.iter().copied().fold(f64::INFINITY, f64::min),
-                inverted_elements: j.iter().filter(|&&j| j <= 0.0).count(),
-                energy: crate::audit::EnergyAudit {
-                    gravitational: sim.gravitational_energy(),
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-        };
+        let row = &data.row;
         let mut csv_row = row.clone();
         if self.deterministic {
             csv_row.wall_seconds = 0.0;
@@ -401,27 +352,26 @@ impl Recorder {
         let csv = &self.csv;
         atomic_write(&path, |w| w.write_all(csv.as_bytes()))?;
         self.note(path);
-        self.timings.push(
-            frame,
-            row.wall_seconds,
-            &row.timings,
-            sim.contact().map(|c| c.costs()),
-        );
+        self.timings
+            .push(frame, row.wall_seconds, &row.timings, data.contact_costs);
         let path = self.dir.join("timings.csv");
         let timings = self.timings.text();
         atomic_write(&path, |w| w.write_all(timings.as_bytes()))?;
         self.note(path);
-        self.write_monitors(sim)
+        self.write_monitors(frame, data.time, &data.probes, &data.reactions)
     }
 
     /// A row of probes.csv (each probe's displacement, m) and of reactions.csv (each named
     /// constraint's reaction force, N) for the current frame, when the run has them.
-    fn write_monitors(&mut self, sim: &Simulation) -> Result<()> {
-        let start = format!("{},{}", sim.frame(), num(sim.state.t));
-        let rows = [
-            ("probes.csv", sim.probe_displacements()),
-            ("reactions.csv", sim.reaction_forces()),
-        ];
+    fn write_monitors(
+        &mut self,
+        frame: usize,
+        time: f64,
+        probes: &[Vec3],
+        reactions: &[Vec3],
+    ) -> Result<()> {
+        let start = format!("{frame},{}", num(time));
+        let rows = [("probes.csv", probes), ("reactions.csv", reactions)];
         for (name, values) in rows {
             if values.is_empty() {
                 continue;
@@ -494,7 +444,9 @@ impl Recorder {
             "parameters": resolved_parameters(scene, sim)?,
             "info": self
                 .info
-                .get_or_insert_with(|| crate::info::describe(scene, sim).to_json()),
+                .get_or_insert_with(|| {
+                    crate::info::describe_with(scene, sim, crate::info::Effort::Bounded).to_json()
+                }),
             "outputs": { "files": collected, "frames": frames },
         });
         let mut manifest = manifest;
@@ -521,6 +473,12 @@ impl Recorder {
             self.reactions_csv = format!("{}\n", monitors.reactions_header());
         }
         self.timings = TimingsCsv::new(sim.contact().is_some());
+        // A simulation on a renumbered mesh writes in the input mesh's numbering.
+        if sim.renumbering().is_some() {
+            let taker = FrameTaker::new(sim);
+            self.surface = crate::mesh::TetMesh::new(taker.rest().to_vec(), taker.tets().to_vec())
+                .boundary_faces();
+        }
         if let Some(setup) = sim.contact_setup() {
             self.csv = format!("{}\n", steps_header(true));
             let scene = scene_box(sim.initial_positions(), setup);
@@ -528,6 +486,7 @@ impl Recorder {
                 surface: DisplaySurface::new(setup, scene),
                 moving: setup.obstacles.iter().any(|o| moves(&o.obstacle)),
                 pvd: Vec::new(),
+                setup: setup.clone(),
             });
         }
     }
@@ -536,8 +495,9 @@ impl Recorder {
     /// `obstacles.pvd`.
     fn write_obstacles(
         &mut self,
-        sim: &Simulation,
-        setup: &ContactSetup,
+        frame: usize,
+        time: f64,
+        ramps: &[f64],
         files: &mut Vec<(String, String)>,
     ) -> Result<()> {
         let Some(out) = &mut self.contact else {
@@ -546,14 +506,9 @@ impl Recorder {
         if !out.moving && !out.pvd.is_empty() {
             return Ok(());
         }
-        let ramps: Vec<f64> = setup
-            .obstacles
-            .iter()
-            .map(|o| sim.motion_ramp(o.duration))
-            .collect();
-        let points = out.surface.positions_at(setup, &ramps);
+        let points = out.surface.positions_at(&out.setup, ramps);
         let index: Vec<f64> = out.surface.obstacle.iter().map(|&k| k as f64).collect();
-        let name = format!("obstacles_{:04}.vtu", sim.frame());
+        let name = format!("obstacles_{frame:04}.vtu");
         let path = self.dir.join(&name);
         write_surface_vtu(
             &path,
@@ -566,7 +521,7 @@ impl Recorder {
             ],
         )?;
         files.push((name.clone(), crate::manifest::sha256_file(&path)?));
-        out.pvd.push((sim.state.t, name));
+        out.pvd.push((time, name));
         self.note(path);
         let path = self.dir.join("obstacles.pvd");
         write_pvd(&path, &self.contact.as_ref().expect("set above").pvd)?;

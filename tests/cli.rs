@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 mod analyses;
 #[path = "common/beam24.rs"]
 mod beam24;
+#[path = "cli/checkpoints.rs"]
+mod checkpoints;
 #[path = "cli/contact.rs"]
 mod contact;
 #[path = "cli/contact_trust.rs"]

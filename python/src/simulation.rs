@@ -12,7 +12,7 @@ use tetsim::boundary::Motion;
 use tetsim::integrator::StepStats;
 use tetsim::math::Vec3;
 use tetsim::output::{Cell, Recorder, step_columns};
-use tetsim::runner::{Ending, Runner};
+use tetsim::runner::{CheckpointInterval, Ending, Runner};
 
 use crate::arrays;
 use crate::errors::{LibResult, argument, from_lib};
@@ -109,12 +109,13 @@ impl Simulation {
             .py()?
             .deterministic(scene.output.deterministic);
         recorder.write_frame(&*sim, None).py()?;
-        // The same loop as the command line's: a checkpoint after every frame, so that
+        // The same loop as the command line's: checkpoints as the scene says, so that
         // `tetsim run --resume OUT` goes on with the run.
         let mut record = tetsim::runner::fresh_record(&scene, &scene.base_dir, &out);
         record.inputs = tetsim::manifest::input_hashes(&scene).py()?.to_string();
         let mut runner = Runner::new(recorder)
             .with_checkpoint(record)
+            .with_interval(CheckpointInterval::of(&scene))
             .with_stop(Arc::clone(&flag));
         runner.save(&*sim).py()?;
         let mut all = Vec::new();

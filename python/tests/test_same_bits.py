@@ -40,7 +40,7 @@ def test_run_writes_the_same_bytes_as_the_command_line(tmp_path, tetsim_bin, nam
     rows = sim.run(py_out, deterministic=True)
     assert len(rows) == frames and sim.is_finished
     cli, py = output_files(cli_out), output_files(py_out)
-    # Both checkpoint after every frame for `tetsim run --resume`; a checkpoint names its
+    # Both write a checkpoint for `tetsim run --resume`; a checkpoint names its
     # own run folder.
     cli.pop("checkpoint.bin")
     py.pop("checkpoint.bin")

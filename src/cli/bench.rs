@@ -39,6 +39,9 @@ pub struct BenchArgs {
     /// always have contact.
     #[arg(long, default_value = "beam", value_parser = parse_workload)]
     pub workload: bench::Workload,
+    /// Time only the step loop: skip the whole run with outputs that each size gets once.
+    #[arg(long)]
+    pub loop_only: bool,
     /// Print JSON instead of the table (to stdout), for comparing runs.
     #[arg(long)]
     pub json: bool,
@@ -61,6 +64,7 @@ pub fn run(args: BenchArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         order: args.order,
         contact: args.contact,
         workload: args.workload,
+        whole: !args.loop_only,
     };
     let report = bench::run(&params, |line| {
         if !quiet {

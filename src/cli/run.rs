@@ -20,7 +20,7 @@ use tetsim::diagnose::{RunSummary, folded_finding, plausibility_warnings};
 use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
 use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
-use tetsim::runner::{Ending, Runner};
+use tetsim::runner::{CheckpointInterval, Ending, Runner};
 use tetsim::{Scene, Simulation, Vec3};
 
 /// Arguments of `tetsim run`.
@@ -120,6 +120,7 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     .named(&record.out);
     let mut runner = Runner::new(recorder)
         .with_checkpoint(record.clone())
+        .with_interval(CheckpointInterval::of(&scene))
         .with_stop(Arc::clone(&stop.flag));
     if checkpoint.is_none() {
         runner.save(&sim).context("writing the checkpoint")?;
@@ -372,7 +373,7 @@ fn picture_params(scene: &Scene, field: Option<FieldKind>) -> RunPictureParams {
         },
         gif_width: o.gif_width,
         gif_height: o.gif_height,
-        gif_delay_cs: render::gif_delay_cs(scene.solver.dt * o.gif_stride as f64),
+        gif_delay_cs: render::gif_delay_cs(scene.solver.dt * gif_stride(scene) as f64),
     }
 }
 
@@ -389,6 +390,12 @@ fn check_pictures(p: &RunPictureParams) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The GIF's stride: `gif_stride`, made larger as `gif_frames` needs for the run's frames.
+fn gif_stride(scene: &Scene) -> usize {
+    let o = &scene.output;
+    render::gif_stride(scene.solver.frames, o.gif_stride, o.gif_frames)
+}
+
 /// preview.png and animation.gif (every gif_stride-th frame and the last), drawn from the
 /// frames on disk one at a time, and the plots of steps.csv.
 fn draw(
@@ -399,7 +406,7 @@ fn draw(
 ) -> anyhow::Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     if scene.output.pictures {
-        let stride = scene.output.gif_stride;
+        let stride = gif_stride(scene);
         written.extend(
             super::saved::render_saved(out, out, params, |frame| {
                 frame.is_multiple_of(stride) || frame == last

@@ -54,7 +54,8 @@ pub use image::Image;
 pub use obstacles::ObstacleView;
 pub use plot::{plot_series, plot_steps};
 pub use run::{
-    FrameSource, OwnedFrame, RunFrame, RunPictureParams, gif_delay_cs, render_run, render_run_from,
+    FrameSource, OwnedFrame, RunFrame, RunPictureParams, gif_delay_cs, gif_stride, render_run,
+    render_run_from,
 };
 
 /// How triangles are lit.

@@ -65,6 +65,24 @@ pub fn gif_delay_cs(seconds_per_frame: f64) -> u16 {
     (seconds_per_frame * 100.0).round().clamp(2.0, 100.0) as u16
 }
 
+/// The GIF's stride for frames 0..=`last`: `stride`, or the least larger one that keeps the GIF
+/// (every stride-th frame and the last) within `budget` frames (0: no budget; a budget below 2
+/// counts as 2, the first and the last frame).
+pub fn gif_stride(last: usize, stride: usize, budget: usize) -> usize {
+    let count = |s: usize| last / s + 1 + usize::from(!last.is_multiple_of(s));
+    let mut s = stride.max(1);
+    if budget == 0 {
+        return s;
+    }
+    let budget = budget.max(2);
+    // The least stride whose every-stride-th frames alone fit, then up to one more for the last.
+    s = s.max(last.div_ceil(budget.saturating_sub(1).max(1)));
+    while count(s) > budget {
+        s += 1;
+    }
+    s
+}
+
 /// One frame of a run, owned (as a [`FrameSource`] loads it).
 #[derive(Clone, Debug, Default)]
 pub struct OwnedFrame {
@@ -269,5 +287,33 @@ mod tests {
         assert_eq!(gif_delay_cs(0.001), 2);
         assert_eq!(gif_delay_cs(5.0), 100);
         assert_eq!(gif_delay_cs(f64::NAN), 4);
+    }
+
+    #[test]
+    fn the_gif_stride_is_the_least_that_keeps_the_frame_budget() {
+        let count = |last: usize, s: usize| (0..=last).filter(|f| f % s == 0 || *f == last).count();
+        for last in [0, 1, 2, 59, 299, 300, 301, 3000, 12345] {
+            for (stride, budget) in [(1, 300), (1, 0), (4, 300), (1, 2), (1, 1), (7, 50)] {
+                let s = gif_stride(last, stride, budget);
+                assert!(s >= stride);
+                if budget == 0 {
+                    assert_eq!(s, stride);
+                    continue;
+                }
+                assert!(
+                    count(last, s) <= budget.max(2),
+                    "{last} {stride} {budget}: {s}"
+                );
+                if s > stride {
+                    assert!(
+                        count(last, s - 1) > budget.max(2),
+                        "{last} {stride} {budget}: {s}"
+                    );
+                }
+            }
+        }
+        assert_eq!(gif_stride(3000, 1, 300), 11);
+        assert_eq!(gif_stride(60, 1, 300), 1);
+        assert_eq!(gif_stride(3000, 1, 150), 21);
     }
 }

@@ -742,6 +742,16 @@ pub struct OutputSpec {
     pub gif_height: u32,
     /// Every k-th frame goes into the GIF (the last frame always does). Default 1.
     pub gif_stride: usize,
+    /// The most frames the GIF holds: the stride grows past `gif_stride` as a long run needs
+    /// (0: no limit, every `gif_stride`-th frame). Default 150.
+    pub gif_frames: usize,
+    /// Wall-clock time between checkpoints, s: a frame finished this long after the last
+    /// checkpoint writes `checkpoint.bin` (0: every frame). The first frame, the last and a
+    /// stopped run's last frame always write one. Default 30 s.
+    #[serde(deserialize_with = "units::scalar::<_, units::Time>")]
+    pub checkpoint_every: f64,
+    /// Also write a checkpoint every this many frames (0: by time only). Default 0.
+    pub checkpoint_frames: usize,
     /// Camera azimuth about the up (+y) axis, degrees. Default −35.
     #[serde(deserialize_with = "units::scalar::<_, units::Degrees>")]
     pub azimuth: f64,
@@ -766,6 +776,9 @@ impl Default for OutputSpec {
             gif_width: 480,
             gif_height: 360,
             gif_stride: 1,
+            gif_frames: 150,
+            checkpoint_every: 30.0,
+            checkpoint_frames: 0,
             azimuth: -35.0,
             elevation: 22.0,
             deterministic: false,

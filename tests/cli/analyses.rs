@@ -319,13 +319,34 @@ fn info_reports_mass_volume_wave_speeds_and_the_manifest_holds_the_same() {
         text.contains(&format!("mass: {:.6e} kg", number(&info["mass"]))),
         "{text}"
     );
-    // `tetsim run` writes the same object into manifest.json.
+    // `tetsim run` writes the same object into manifest.json, but for the frequency estimate,
+    // made there at a bounded cost (two blocks, looser solves): within 1e-4 of `tetsim info`'s.
     run_ok(dir.path(), "s.toml", scene, "out");
     let manifest: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(dir.path().join("out/manifest.json")).unwrap(),
     )
     .unwrap();
-    assert_eq!(manifest["info"], *info);
+    let mut from_run = manifest["info"].clone();
+    let bounded = number(&from_run["lowest_frequency"]["hz"]);
+    assert!((bounded / hz - 1.0).abs() < 1e-4, "{bounded} Hz vs {hz} Hz");
+    assert_eq!(from_run["lowest_frequency"]["iterations"], 2);
+    assert!(
+        from_run["lowest_frequency"]["effort"]
+            .as_str()
+            .unwrap()
+            .starts_with("bounded"),
+        "{from_run}"
+    );
+    let mut from_info = info.clone();
+    for object in [&mut from_run, &mut from_info] {
+        let o = object.as_object_mut().unwrap();
+        o.remove("lowest_frequency");
+        o.remove("dt");
+    }
+    assert_eq!(from_run, from_info);
+    let (run_dt, info_dt) = (&manifest["info"]["dt"], &info["dt"]);
+    assert_eq!(run_dt["explicit_stability"], info_dt["explicit_stability"]);
+    assert_eq!(run_dt["scene_step"], info_dt["scene_step"]);
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use super::{stderr, tetsim};
 
-fn spawn(dir: &Path, args: &[&str]) -> Child {
+pub(super) fn spawn(dir: &Path, args: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_tetsim"))
         .args(args)
         .current_dir(dir)
@@ -19,7 +19,7 @@ fn spawn(dir: &Path, args: &[&str]) -> Child {
 }
 
 /// Wait until `file` exists (the run is at least that far), then return at once.
-fn wait_for(child: &mut Child, file: &Path) {
+pub(super) fn wait_for(child: &mut Child, file: &Path) {
     let started = Instant::now();
     while !file.exists() {
         if let Some(status) = child.try_wait().unwrap() {
@@ -33,7 +33,7 @@ fn wait_for(child: &mut Child, file: &Path) {
     }
 }
 
-fn signal(child: &Child, name: &str) {
+pub(super) fn signal(child: &Child, name: &str) {
     let ok = Command::new("kill")
         .args([&format!("-{name}"), &child.id().to_string()])
         .status()
@@ -42,12 +42,12 @@ fn signal(child: &Child, name: &str) {
     assert!(ok, "kill -{name}");
 }
 
-fn manifest(dir: &Path) -> serde_json::Value {
+pub(super) fn manifest(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap()
 }
 
 /// Every file of the run but timings.csv (wall-clock times) and the checkpoint, by name.
-fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
+pub(super) fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().path())

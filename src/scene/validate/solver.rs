@@ -145,6 +145,7 @@ impl Validator<'_> {
             }
         }
         self.at_least_one(&at("gif_stride"), o.gif_stride);
+        self.non_negative(&at("checkpoint_every"), o.checkpoint_every, "s");
         for (k, value) in [("azimuth", o.azimuth), ("elevation", o.elevation)] {
             if !value.is_finite() {
                 self.fail(&at(k), format!("must be finite (degrees), got {value}"));
