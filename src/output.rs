@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::integrator::StepStats;
 use crate::io::obj::write_obj;
 use crate::io::surface_vtu::write_surface_vtu;
+use crate::io::vtu::write_quadratic_vtu;
 use crate::io::{Field, atomic_write, write_pvd, write_vtu};
 use crate::math::Vec3;
 use crate::sim::Simulation;
@@ -297,6 +298,7 @@ impl Recorder {
         // fixed vertices from the frames alone.
         let mut fixed: Vec<f64> = sim.free_mask().iter().map(|m| 3.0 - m.sum()).collect();
         let mut tets = body.mesh.tets.clone();
+        let mut edge_nodes = body.mesh.edge_nodes.clone();
         // A simulation on a renumbered mesh writes in the input mesh's numbering.
         if let Some(r) = sim.renumbering() {
             for field in [&mut x, &mut v, &mut rest] {
@@ -307,9 +309,11 @@ impl Recorder {
                 *field = r.tets_to_old(field);
             }
             tets = r.tets_to_old_mesh(&tets);
+            edge_nodes = r.tets_to_old_mesh(&edge_nodes);
             if !self.surface_in_file_order {
-                self.surface =
-                    crate::mesh::TetMesh::new(rest.clone(), tets.clone()).boundary_faces();
+                let mut mesh = crate::mesh::TetMesh::new(rest.clone(), tets.clone());
+                mesh.edge_nodes = edge_nodes.clone();
+                self.surface = mesh.boundary_faces();
                 self.surface_in_file_order = true;
             }
         }
@@ -353,7 +357,17 @@ impl Recorder {
             cell_data.push(("body", Field::Scalar(cells)));
         }
         let path = self.dir.join(&name);
-        write_vtu(&path, &x, &tets, &point_data, &cell_data)?;
+        if edge_nodes.is_empty() {
+            write_vtu(&path, &x, &tets, &point_data, &cell_data)?;
+        } else {
+            // 10-node cells, so that ParaView draws the bent elements curved.
+            let cells: Vec<[usize; 10]> = tets
+                .iter()
+                .zip(&edge_nodes)
+                .map(|(c, e)| [c[0], c[1], c[2], c[3], e[0], e[1], e[2], e[3], e[4], e[5]])
+                .collect();
+            write_quadratic_vtu(&path, &x, &cells, &point_data, &cell_data)?;
+        }
         let mut files = vec![(name.clone(), crate::manifest::sha256_file(&path)?)];
         self.note(path);
         if self.write_obj {
