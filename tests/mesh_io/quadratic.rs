@@ -268,3 +268,16 @@ fn meshio_reads_our_quadratic_vtu() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Frames of a renumbered run are written in the file's order: corners and mid-edge nodes map
+/// back through the same renumbering.
+#[test]
+fn renumbered_quadratic_cells_map_back_to_the_file_order() {
+    use tetsim::mesh::ordering::{Renumbering, VertexOrder};
+    let mesh = read("cylinder10_v41.msh");
+    let r = Renumbering::new(&mesh, VertexOrder::Random).expect("a renumbering");
+    let renumbered = r.apply(&mesh);
+    assert_ne!(renumbered.tets, mesh.tets);
+    assert_eq!(r.tets_to_old_mesh(&renumbered.tets), mesh.tets);
+    assert_eq!(r.tets_to_old_mesh(&renumbered.edge_nodes), mesh.edge_nodes);
+}
