@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::integrator::StepStats;
 use crate::io::obj::write_obj;
 use crate::io::surface_vtu::write_surface_vtu;
+use crate::io::vtu::write_quadratic_vtu;
 use crate::io::{Field, atomic_write, write_pvd, write_vtu};
 use crate::math::Vec3;
 use crate::sim::Simulation;
@@ -322,7 +323,18 @@ impl Recorder {
             cell_data.push(("body", Field::Scalar(&tags.1)));
         }
         let path = self.dir.join(&name);
-        write_vtu(&path, &data.x, &data.tets, &point_data, &cell_data)?;
+        if data.edge_nodes.is_empty() {
+            write_vtu(&path, &data.x, &data.tets, &point_data, &cell_data)?;
+        } else {
+            // 10-node cells, so that ParaView draws the bent elements curved.
+            let cells: Vec<[usize; 10]> = data
+                .tets
+                .iter()
+                .zip(data.edge_nodes.iter())
+                .map(|(c, e)| [c[0], c[1], c[2], c[3], e[0], e[1], e[2], e[3], e[4], e[5]])
+                .collect();
+            write_quadratic_vtu(&path, &data.x, &cells, &point_data, &cell_data)?;
+        }
         let mut files = vec![(name.clone(), crate::manifest::sha256_file(&path)?)];
         self.note(path);
         if self.write_obj {
@@ -476,8 +488,7 @@ impl Recorder {
         // A simulation on a renumbered mesh writes in the input mesh's numbering.
         if sim.renumbering().is_some() {
             let taker = FrameTaker::new(sim);
-            self.surface = crate::mesh::TetMesh::new(taker.rest().to_vec(), taker.tets().to_vec())
-                .boundary_faces();
+            self.surface = taker.mesh().boundary_faces();
         }
         if let Some(setup) = sim.contact_setup() {
             self.csv = format!("{}\n", steps_header(true));

@@ -4,6 +4,8 @@
 //! input bytes make a reader panic.
 
 mod common;
+#[path = "mesh_io/quadratic.rs"]
+mod quadratic;
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -465,6 +467,8 @@ fn seeds() -> Vec<(&'static str, Vec<u8>)> {
         ("g.vtk", "torus.vtk"),
         ("g.vtu", "torus.vtu"),
         ("g.ele", "bad/missing_node.ele"),
+        ("g.msh", "box10_v22_binary.msh"),
+        ("g.vtk", "box10.vtk"),
     ]
     .into_iter()
     .map(|(n, f)| (n, std::fs::read(fixture(f)).unwrap()))
@@ -484,7 +488,7 @@ proptest! {
 
     #[test]
     fn readers_survive_mutated_real_files(
-        seed in 0..7usize,
+        seed in 0..9usize,
         cut in 0.0..1.0f64,
         flips in proptest::collection::vec((0.0..1.0f64, any::<u8>()), 0..8),
     ) {

@@ -178,10 +178,10 @@ fn rest_mesh(path: &Path, frame: &tetsim::io::Frame) -> anyhow::Result<(RenderMe
         Some((_, FieldData::Scalar(v))) => v.iter().map(|&c| c > 0.0).collect(),
         _ => vec![false; rest.len()],
     };
-    Ok((
-        RenderMesh::new(&TetMesh::new(rest, frame.tets.clone())),
-        fixed,
-    ))
+    let mut mesh = TetMesh::new(rest, frame.tets.clone());
+    // 10-node cells: their faces drawn as four sub-triangles each, through the mid-edge nodes.
+    mesh.edge_nodes = frame.edge_nodes.clone();
+    Ok((RenderMesh::new(&mesh), fixed))
 }
 
 fn vectors<'a>(

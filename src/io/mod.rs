@@ -3,7 +3,8 @@
 //!
 //! [`read_mesh`] picks the reader by extension and then runs the same steps on every mesh, so
 //! that no format can let a bad mesh through:
-//! 1. the reader keeps the tets; triangles, lines and points only define groups (Gmsh physical
+//! 1. the reader keeps the tets (linear, or 10-node with their mid-edge nodes, never both in one
+//!    file); triangles, lines and points only define groups (Gmsh physical
 //!    groups, TetGen markers, MEDIT references), and other cells are reported as ignored;
 //! 2. non-finite coordinates are rejected, naming the node;
 //! 3. vertices no tet uses are dropped and the others renumbered in file order (reported; the
@@ -25,6 +26,7 @@ pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;
 pub mod vtu;
+mod vtu_write;
 mod xml;
 
 use std::collections::{BTreeMap, HashMap};
@@ -247,12 +249,28 @@ fn finish(parsed: Parsed, format: String, options: ReadOptions) -> Result<MeshRe
 
 /// Write `mesh` in the format of `path`'s extension: `.msh` (Gmsh 4.1 ASCII, with groups),
 /// `.vtu` (binary appended), `.vtk` (legacy binary), `.node`/`.ele` (TetGen, both written),
-/// `.mesh` (MEDIT), `.obj` (the outward boundary surface). The file is written atomically.
+/// `.mesh` (MEDIT), `.obj` (the outward boundary surface). A quadratic mesh keeps its 10-node
+/// cells in .msh, .vtu and .vtk (its OBJ surface is the faces split in four) and is refused for
+/// TetGen and MEDIT. The file is written atomically.
 pub fn write_mesh(path: &Path, mesh: &TetMesh) -> Result<()> {
-    match Format::from_path(path)? {
+    let format = Format::from_path(path)?;
+    if mesh.is_quadratic() && matches!(format, Format::TetGen | Format::Medit) {
+        // Writing the corners alone would turn the mesh linear behind the user's back.
+        return Err(Error::parameter(
+            path.display().to_string(),
+            "tetsim writes 10-node tets only as .msh, .vtu or .vtk",
+        ));
+    }
+    match format {
         Format::Gmsh => gmsh::write(path, mesh, gmsh::Version::V41, false),
         Format::TetGen => tetgen::write(path, mesh),
         Format::Vtk => vtk::write(path, mesh, true),
+        Format::Vtu if mesh.is_quadratic() => {
+            let cells: Vec<[usize; 10]> = (0..mesh.tets.len())
+                .map(|t| mesh.quadratic_nodes(t))
+                .collect();
+            vtu::write_quadratic_vtu(path, &mesh.positions, &cells, &[], &[])
+        }
         Format::Vtu => write_vtu(path, &mesh.positions, &mesh.tets, &[], &[]),
         Format::Medit => medit::write(path, mesh),
         Format::Obj => obj::write_obj(path, &mesh.positions, &mesh.boundary_faces()),

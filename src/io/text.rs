@@ -49,6 +49,11 @@ impl<'a> Cursor<'a> {
         self.line
     }
 
+    /// The file being read, for errors raised after parsing.
+    pub fn path(&self) -> &'a Path {
+        self.path
+    }
+
     /// 1-based line of the cursor, skipping nothing.
     pub fn line_here(&self) -> usize {
         self.line

@@ -2,8 +2,9 @@
 //! `CELLS n size` with per-cell counts (versions ≤ 4.2) and `OFFSETS`/`CONNECTIVITY` (5.x, as
 //! VTK 9 and meshio write). Read and written (4.2 layout, read by every VTK version).
 //!
-//! Our own reader: `vtkio` 0.6 does not read the 5.x layout. Tets (and the corners of quadratic
-//! tets) are kept, other cells reported as ignored; data arrays after the cells are not read.
+//! Our own reader: `vtkio` 0.6 does not read the 5.x layout. Tets (`VTK_TETRA`) or 10-node tets
+//! (`VTK_QUADRATIC_TETRA`, whose mid-edge order is tetsim's), never both in one file, are kept;
+//! other cells reported as ignored; data arrays after the cells are not read.
 //! Elements and nodes are named by their 0-based index in the file, as ParaView shows them.
 
 use std::path::Path;
@@ -16,7 +17,7 @@ use crate::mesh::TetMesh;
 
 /// VTK cell type of a linear tet.
 pub(crate) const VTK_TETRA: i64 = 10;
-/// VTK cell type of a 10-node tet (its first four points are the corners).
+/// VTK cell type of a 10-node tet: four corners, then the nodes on edges 01, 12, 02, 03, 13, 23.
 pub(crate) const VTK_QUADRATIC_TETRA: i64 = 24;
 
 /// The name of a VTK cell type, for the ignored-elements report.
@@ -233,7 +234,8 @@ pub fn read(path: &Path) -> Result<(Parsed, String)> {
 }
 
 /// Keep the tets of a VTK cell list (`offsets` has one more entry than there are cells; a
-/// leading 0 is optional, as in VTU where offsets are the cells' ends).
+/// leading 0 is optional, as in VTU where offsets are the cells' ends). Cells are named by
+/// their 0-based index, as ParaView shows them.
 pub(crate) fn tets_from_cells(
     path: &Path,
     points: Vec<Vec3>,
@@ -255,53 +257,71 @@ pub(crate) fn tets_from_cells(
     }
     let mut ignored = Ignored::default();
     let mut tets = Vec::new();
+    let mut edge_nodes = Vec::new();
     let mut tet_ids = Vec::new();
+    // The first linear and the first quadratic tet: a mesh with both is refused.
+    let (mut first_linear, mut first_quadratic) = (None, None);
     let mut start = if offsets.len() == types.len() + 1 {
         offsets[0]
     } else {
         0
     };
+    let err = |message: String| crate::error::Error::parse(path, None, message);
     for (cell, (&end, &ty)) in ends.iter().zip(types).enumerate() {
         let range = usize::try_from(start)
             .ok()
             .zip(usize::try_from(end).ok())
             .filter(|&(s, e)| s <= e && e <= connectivity.len());
         let Some((s, e)) = range else {
-            return Err(crate::error::Error::parse(
-                path,
-                None,
-                format!(
-                    "cell {cell}: offsets {start}..{end} outside the connectivity (length {})",
-                    connectivity.len()
-                ),
-            ));
+            return Err(err(format!(
+                "cell {cell}: offsets {start}..{end} outside the connectivity (length {})",
+                connectivity.len()
+            )));
         };
         start = end;
-        if ty == VTK_TETRA || ty == VTK_QUADRATIC_TETRA {
-            if e - s < 4 {
-                return Err(crate::error::Error::parse(
-                    path,
-                    None,
-                    format!("cell {cell}: a tet with {} points", e - s),
-                ));
-            }
-            let mut tet = [0usize; 4];
-            for (slot, &v) in tet.iter_mut().zip(&connectivity[s..s + 4]) {
-                *slot = usize::try_from(v)
-                    .ok()
-                    .filter(|&v| v < points.len())
-                    .ok_or_else(|| missing_node(path, cell as u64, v as u64))?;
-            }
-            if ty == VTK_QUADRATIC_TETRA {
-                ignored.add("quadratic tetra (corner points kept)", 1);
-            }
-            tets.push(tet);
-            tet_ids.push(cell as u64);
-        } else {
+        if ty != VTK_TETRA && ty != VTK_QUADRATIC_TETRA {
             ignored.add(cell_name(ty), 1);
+            continue;
         }
+        let quadratic = ty == VTK_QUADRATIC_TETRA;
+        let needed = if quadratic { 10 } else { 4 };
+        if e - s < needed || (quadratic && e - s != needed) {
+            let kind = if quadratic { "quadratic tet" } else { "tet" };
+            return Err(err(format!(
+                "cell {cell}: a {kind} (VTK type {ty}) with {} points ({needed} needed)",
+                e - s
+            )));
+        }
+        let (mine, other) = if quadratic {
+            (&mut first_quadratic, first_linear)
+        } else {
+            (&mut first_linear, first_quadratic)
+        };
+        mine.get_or_insert(cell);
+        if let Some(other) = other {
+            return Err(err(format!(
+                "cell {cell} is a {} tet but cell {other} is a {} one: a mesh must have tets \
+                 of one order",
+                if quadratic { "10-node" } else { "4-node" },
+                if quadratic { "4-node" } else { "10-node" },
+            )));
+        }
+        let mut nodes = [0usize; 10];
+        for (slot, &v) in nodes.iter_mut().zip(&connectivity[s..s + needed]) {
+            *slot = usize::try_from(v)
+                .ok()
+                .filter(|&v| v < points.len())
+                .ok_or_else(|| missing_node(path, cell as u64, v as u64))?;
+        }
+        tets.push([nodes[0], nodes[1], nodes[2], nodes[3]]);
+        if quadratic {
+            // VTK_QUADRATIC_TETRA's mid-edge order is tetsim's.
+            edge_nodes.push([nodes[4], nodes[5], nodes[6], nodes[7], nodes[8], nodes[9]]);
+        }
+        tet_ids.push(cell as u64);
     }
     let mut mesh = TetMesh::new(points, tets);
+    mesh.edge_nodes = edge_nodes;
     mesh.tet_ids = Some(tet_ids);
     Ok(Parsed {
         mesh,
@@ -311,7 +331,8 @@ pub(crate) fn tets_from_cells(
     })
 }
 
-/// Write `mesh` as a legacy VTK 4.2 unstructured grid of tets, binary (big-endian) or ASCII.
+/// Write `mesh` as a legacy VTK 4.2 unstructured grid of tets (10-node `VTK_QUADRATIC_TETRA`
+/// cells when the mesh is quadratic), binary (big-endian) or ASCII.
 pub fn write(path: &Path, mesh: &TetMesh, binary: bool) -> Result<()> {
     atomic_write(path, |w| {
         let n = mesh.positions.len();
@@ -331,15 +352,23 @@ pub fn write(path: &Path, mesh: &TetMesh, binary: bool) -> Result<()> {
                 writeln!(w, "{} {} {}", fmt_f64(x.x), fmt_f64(x.y), fmt_f64(x.z))?;
             }
         }
-        writeln!(w, "CELLS {m} {}", 5 * m)?;
-        for tet in &mesh.tets {
+        let per = mesh.nodes_per_tet();
+        let cell_type = if mesh.is_quadratic() {
+            VTK_QUADRATIC_TETRA
+        } else {
+            VTK_TETRA
+        };
+        writeln!(w, "CELLS {m} {}", (per + 1) * m)?;
+        for t in 0..m {
+            let nodes = mesh.element_nodes(t);
             if binary {
-                w.write_all(&4i32.to_be_bytes())?;
-                for &v in tet {
+                w.write_all(&(per as i32).to_be_bytes())?;
+                for &v in &nodes {
                     w.write_all(&(v as i32).to_be_bytes())?;
                 }
             } else {
-                writeln!(w, "4 {} {} {} {}", tet[0], tet[1], tet[2], tet[3])?;
+                let list: Vec<String> = nodes.iter().map(usize::to_string).collect();
+                writeln!(w, "{per} {}", list.join(" "))?;
             }
         }
         if binary {
@@ -348,9 +377,9 @@ pub fn write(path: &Path, mesh: &TetMesh, binary: bool) -> Result<()> {
         writeln!(w, "CELL_TYPES {m}")?;
         for _ in 0..m {
             if binary {
-                w.write_all(&(VTK_TETRA as i32).to_be_bytes())?;
+                w.write_all(&(cell_type as i32).to_be_bytes())?;
             } else {
-                writeln!(w, "{VTK_TETRA}")?;
+                writeln!(w, "{cell_type}")?;
             }
         }
         if binary {

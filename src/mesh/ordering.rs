@@ -179,8 +179,10 @@ impl Renumbering {
     }
 
     /// The original mesh's tets (original vertex indices, original order) from the new mesh's.
-    pub fn tets_to_old_mesh(&self, new_tets: &[[usize; 4]]) -> Vec<[usize; 4]> {
-        let mut old = vec![[0; 4]; new_tets.len()];
+    /// Any per-tet node list renumbers the same way: corners (`N = 4`), mid-edge nodes
+    /// ([`TetMesh::edge_nodes`], `N = 6`) or all ten nodes.
+    pub fn tets_to_old_mesh<const N: usize>(&self, new_tets: &[[usize; N]]) -> Vec<[usize; N]> {
+        let mut old = vec![[0; N]; new_tets.len()];
         for (n, &o) in self.tet_old.iter().enumerate() {
             old[o] = new_tets[n].map(|v| self.vertex_old[v]);
         }

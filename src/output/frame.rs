@@ -28,6 +28,8 @@ pub struct FrameData {
     pub(super) psi: Vec<f64>,
     pub(super) von_mises: Vec<f64>,
     pub(super) tets: Arc<Vec<[usize; 4]>>,
+    /// Quadratic tets: each tet's mid-edge nodes (empty for linear tets).
+    pub(super) edge_nodes: Arc<Vec<[usize; 6]>>,
     /// Per point and per cell: the body (several bodies only).
     pub(super) tags: Option<Arc<(Vec<f64>, Vec<f64>)>>,
     /// With contact: each vertex's contact force (N).
@@ -46,6 +48,7 @@ pub struct FrameData {
 /// Takes frames from one simulation; holds what stays the same from frame to frame.
 pub struct FrameTaker {
     tets: Arc<Vec<[usize; 4]>>,
+    edge_nodes: Arc<Vec<[usize; 6]>>,
     rest: Vec<Vec3>,
     tags: Option<Arc<(Vec<f64>, Vec<f64>)>>,
 }
@@ -54,12 +57,17 @@ impl FrameTaker {
     /// For the frames of `sim` (its mesh and bodies do not change during a run).
     pub fn new(sim: &Simulation) -> Self {
         let mesh = &sim.body.mesh;
-        let (tets, rest) = match sim.renumbering() {
+        let (tets, edge_nodes, rest) = match sim.renumbering() {
             Some(r) => (
                 r.tets_to_old_mesh(&mesh.tets),
+                r.tets_to_old_mesh(&mesh.edge_nodes),
                 r.vertices_to_old(&mesh.positions),
             ),
-            None => (mesh.tets.clone(), mesh.positions.clone()),
+            None => (
+                mesh.tets.clone(),
+                mesh.edge_nodes.clone(),
+                mesh.positions.clone(),
+            ),
         };
         let bodies = sim.bodies();
         let tags = (bodies.count() > 1).then(|| {
@@ -68,6 +76,7 @@ impl FrameTaker {
         });
         FrameTaker {
             tets: Arc::new(tets),
+            edge_nodes: Arc::new(edge_nodes),
             rest,
             tags,
         }
@@ -76,6 +85,13 @@ impl FrameTaker {
     /// The tets in the input numbering.
     pub fn tets(&self) -> &[[usize; 4]] {
         &self.tets
+    }
+
+    /// The mesh in the input numbering (rest positions, corners, mid-edge nodes).
+    pub fn mesh(&self) -> crate::mesh::TetMesh {
+        let mut mesh = crate::mesh::TetMesh::new(self.rest.clone(), self.tets.to_vec());
+        mesh.edge_nodes = self.edge_nodes.to_vec();
+        mesh
     }
 
     /// The rest positions in the input numbering.
@@ -153,6 +169,7 @@ impl FrameTaker {
             psi,
             von_mises,
             tets: Arc::clone(&self.tets),
+            edge_nodes: Arc::clone(&self.edge_nodes),
             tags: self.tags.clone(),
             contact_force,
             obstacle_ramps,

@@ -1,22 +1,24 @@
 //! Gmsh `.msh` files: MSH 2.2 and 4.1, ASCII and binary, read; 4.1 (ASCII or binary) and 2.2
 //! ASCII written.
 //!
-//! Our own reader: `mshio` reads only 4.1 and is unmaintained. Tets (and the corners of
-//! higher-order tets) become the mesh; every other element only adds to the physical groups it
-//! belongs to (`$PhysicalNames` give the names). Sections we do not need (`$Periodic`,
-//! `$NodeData`, …) are skipped. Errors give the line (in binary data, the byte offset) and, for a
+//! Our own reader: `mshio` reads only 4.1 and is unmaintained. Tets become the mesh: 4-node
+//! ones, or 10-node ones (type 11) with their mid-edge nodes, never both in one file (the
+//! corners of tets of order 3 and more are kept); every other element only adds to the physical
+//! groups it belongs to (a 6-node triangle gives its corner face and all six nodes), and
+//! `$PhysicalNames` give the names. Sections we do not need (`$Periodic`, `$NodeData`, …) are
+//! skipped. Errors give the line (in binary data, the byte offset) and, for a
 //! missing node, the element and node ids as in the file.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::text::{Cursor, Endian, Scalar, decode, shorten};
-use super::{Groups, IdMap, Ignored, Parsed, missing_node, read_bytes};
+use super::{Parsed, read_bytes};
 use crate::error::Result;
 use crate::math::Vec3;
-use crate::mesh::TetMesh;
 
+mod assemble;
 mod write;
+use assemble::{Raw, Seen, assemble, element_type};
 pub use write::write;
 
 /// The MSH versions tetsim writes.
@@ -28,85 +30,12 @@ pub enum Version {
     V41,
 }
 
-/// (node count, dimension, name) of Gmsh element type `t`, for the types in use.
-fn element_type(t: i64) -> Option<(usize, usize, &'static str)> {
-    Some(match t {
-        1 => (2, 1, "line"),
-        2 => (3, 2, "triangle"),
-        3 => (4, 2, "quadrangle"),
-        4 => (4, 3, "tetrahedron"),
-        5 => (8, 3, "hexahedron"),
-        6 => (6, 3, "prism"),
-        7 => (5, 3, "pyramid"),
-        8 => (3, 1, "line3"),
-        9 => (6, 2, "triangle6"),
-        10 => (9, 2, "quadrangle9"),
-        11 => (10, 3, "tetrahedron10"),
-        12 => (27, 3, "hexahedron27"),
-        13 => (18, 3, "prism18"),
-        14 => (14, 3, "pyramid14"),
-        15 => (1, 0, "point"),
-        16 => (8, 2, "quadrangle8"),
-        17 => (20, 3, "hexahedron20"),
-        18 => (15, 3, "prism15"),
-        19 => (13, 3, "pyramid13"),
-        20 => (9, 2, "triangle9"),
-        21 => (10, 2, "triangle10"),
-        22 => (12, 2, "triangle12"),
-        23 => (15, 2, "triangle15"),
-        24 => (15, 2, "triangle15i"),
-        25 => (21, 2, "triangle21"),
-        26 => (4, 1, "line4"),
-        27 => (5, 1, "line5"),
-        28 => (6, 1, "line6"),
-        29 => (20, 3, "tetrahedron20"),
-        30 => (35, 3, "tetrahedron35"),
-        31 => (56, 3, "tetrahedron56"),
-        _ => return None,
-    })
-}
-
-const TET_TYPES: [i64; 5] = [4, 11, 29, 30, 31];
-const TRIANGLE_TYPES: [i64; 8] = [2, 9, 20, 21, 22, 23, 24, 25];
-
 /// Binary layout of the file (None: ASCII).
 #[derive(Clone, Copy)]
 struct Binary {
     endian: Endian,
     /// `sizeof(size_t)` declared in `$MeshFormat` (4 or 8).
     size_t: Scalar,
-}
-
-/// What the sections hold, before node ids are resolved.
-#[derive(Default)]
-struct Raw {
-    node_ids: Vec<u64>,
-    positions: Vec<Vec3>,
-    tets: Vec<[u64; 4]>,
-    tet_ids: Vec<u64>,
-    /// Index into `sets` of each tet's physical tags.
-    tet_set: Vec<u32>,
-    /// Non-tet elements that belong to a physical group: (id, type, set, nodes).
-    others: Vec<(u64, i64, u32, Vec<u64>)>,
-    /// Distinct physical tag lists; index 0 is the empty list.
-    sets: Vec<Vec<i64>>,
-    names: BTreeMap<(usize, i64), String>,
-    /// v4: (entity dim, entity tag) → index into `sets`.
-    entities: BTreeMap<(usize, i64), u32>,
-    ignored: Ignored,
-    higher_order: usize,
-}
-
-impl Raw {
-    fn set_index(&mut self, tags: Vec<i64>) -> u32 {
-        match self.sets.iter().position(|s| *s == tags) {
-            Some(i) => i as u32,
-            None => {
-                self.sets.push(tags);
-                (self.sets.len() - 1) as u32
-            }
-        }
-    }
 }
 
 struct Reader<'a> {
@@ -418,24 +347,6 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// One element: stores tets, and other elements that belong to a group.
-    fn add_element(&mut self, raw: &mut Raw, id: u64, ty: i64, set: u32, nodes: &[u64]) {
-        let (_, _, name) = element_type(ty).unwrap_or((0, 0, "unknown"));
-        if TET_TYPES.contains(&ty) {
-            if ty != 4 {
-                raw.higher_order += 1;
-            }
-            raw.tets.push([nodes[0], nodes[1], nodes[2], nodes[3]]);
-            raw.tet_ids.push(id);
-            raw.tet_set.push(set);
-        } else {
-            raw.ignored.add(name, 1);
-            if set != 0 {
-                raw.others.push((id, ty, set, nodes.to_vec()));
-            }
-        }
-    }
-
     fn elements_v2(&mut self, raw: &mut Raw) -> Result<()> {
         let n = self
             .c
@@ -468,7 +379,11 @@ impl Reader<'_> {
                     } else {
                         vec![]
                     });
-                    self.add_element(raw, id, ty, set, &nodes);
+                    let at = Seen {
+                        id,
+                        line: Some(line),
+                    };
+                    raw.add_element(self.c.path(), at, ty, set, &nodes)?;
                 }
             }
             Some(b) => {
@@ -499,7 +414,11 @@ impl Reader<'_> {
                         } else {
                             vec![]
                         });
-                        self.add_element(raw, w(0) as u64, ty, set, &nodes);
+                        let at = Seen {
+                            id: w(0) as u64,
+                            line: None,
+                        };
+                        raw.add_element(self.c.path(), at, ty, set, &nodes)?;
                     }
                     read += count as usize;
                 }
@@ -532,12 +451,17 @@ impl Reader<'_> {
             match self.binary {
                 None => {
                     for _ in 0..n {
+                        let line = self.c.line();
                         let id: u64 = self.c.parse("an element tag")?;
                         nodes.clear();
                         for _ in 0..nn {
                             nodes.push(self.c.parse("a node tag")?);
                         }
-                        self.add_element(raw, id, ty, set, &nodes);
+                        let at = Seen {
+                            id,
+                            line: Some(line),
+                        };
+                        raw.add_element(self.c.path(), at, ty, set, &nodes)?;
                     }
                 }
                 Some(b) => {
@@ -548,7 +472,11 @@ impl Reader<'_> {
                         let w = |k: usize| as_int(decode(&e[sz * k..], b.size_t, b.endian)) as u64;
                         nodes.clear();
                         nodes.extend((0..nn).map(|k| w(1 + k)));
-                        self.add_element(raw, w(0), ty, set, &nodes);
+                        let at = Seen {
+                            id: w(0),
+                            line: None,
+                        };
+                        raw.add_element(self.c.path(), at, ty, set, &nodes)?;
                     }
                 }
             }
@@ -588,82 +516,6 @@ fn as_int(v: super::text::Value) -> i64 {
         super::text::Value::Int(i) => i as i64,
         super::text::Value::Float(f) => f as i64,
     }
-}
-
-/// Resolve node ids, build the tets and the groups.
-fn assemble(path: &Path, raw: Raw, v2: bool) -> Result<Parsed> {
-    let ids = IdMap::new(&raw.node_ids).map_err(|id| {
-        crate::error::Error::parse(path, None, format!("node {id} is defined twice"))
-    })?;
-    let mut ignored = raw.ignored;
-    if raw.higher_order > 0 {
-        ignored.add(
-            "higher-order tetrahedron (corner nodes kept)",
-            raw.higher_order,
-        );
-    }
-    let name_of = |dim: usize, tag: i64| raw.names.get(&(dim, tag)).cloned().unwrap_or_default();
-    let mut groups = Groups::default();
-    let mut tets: Vec<[usize; 4]> = Vec::with_capacity(raw.tets.len());
-    let mut tet_ids = Vec::with_capacity(raw.tets.len());
-    // MSH 2 writes an element once per physical group it is in: merge such copies.
-    let mut seen: std::collections::HashMap<[u64; 4], (usize, usize)> = Default::default();
-    let mut first_set = None;
-    let merge = v2
-        && raw
-            .tet_set
-            .iter()
-            .filter(|&&s| s != 0)
-            .any(|&s| *first_set.get_or_insert(s) != s);
-    for (k, nodes) in raw.tets.iter().enumerate() {
-        let mut tet = [0usize; 4];
-        for (slot, &node) in tet.iter_mut().zip(nodes) {
-            *slot = ids
-                .get(node)
-                .ok_or_else(|| missing_node(path, raw.tet_ids[k], node))?;
-        }
-        let set = raw.tet_set[k] as usize;
-        let index = match merge.then(|| seen.get(nodes).copied()).flatten() {
-            Some((t, first_set)) if first_set != set => t,
-            _ => {
-                if merge {
-                    seen.insert(*nodes, (tets.len(), set));
-                }
-                tets.push(tet);
-                tet_ids.push(raw.tet_ids[k]);
-                tets.len() - 1
-            }
-        };
-        for &p in &raw.sets[set] {
-            let g = groups.entry(3, p, &name_of(3, p));
-            g.tets.push(index);
-            g.vertices.extend_from_slice(&tet);
-        }
-    }
-    for (id, ty, set, nodes) in &raw.others {
-        let dim = element_type(*ty).map_or(0, |t| t.1);
-        let mut vertices = Vec::with_capacity(nodes.len());
-        for &node in nodes {
-            vertices.push(ids.get(node).ok_or_else(|| missing_node(path, *id, node))?);
-        }
-        for &p in &raw.sets[*set as usize] {
-            let g = groups.entry(dim, p, &name_of(dim, p));
-            g.vertices.extend_from_slice(&vertices);
-            if TRIANGLE_TYPES.contains(ty) {
-                g.faces.push([vertices[0], vertices[1], vertices[2]]);
-            }
-        }
-    }
-    let mut mesh = TetMesh::new(raw.positions, tets);
-    mesh.groups = groups.finish();
-    mesh.tet_ids = Some(tet_ids);
-    mesh.vertex_ids = Some(raw.node_ids);
-    Ok(Parsed {
-        mesh,
-        ignored: ignored.finish(),
-        element_path: path.to_path_buf(),
-        node_path: path.to_path_buf(),
-    })
 }
 
 #[cfg(test)]

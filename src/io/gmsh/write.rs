@@ -1,10 +1,13 @@
-//! The MSH writer: 4.1 (ASCII or binary) and 2.2 ASCII, with the groups as physical groups.
+//! The MSH writer: 4.1 (ASCII or binary) and 2.2 ASCII, with the groups as physical groups. A
+//! quadratic mesh is written as 10-node tets (type 11) and its group faces as 6-node triangles
+//! (type 9), so that Gmsh, meshio and tetsim read back the same mid-edge nodes.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::io::Write;
 use std::path::Path;
 
 use super::Version;
+use super::assemble::{TET4, TET10, TRIANGLE6};
 use crate::error::Result;
 use crate::io::{atomic_write, fmt_f64, write_numbered_points};
 use crate::mesh::TetMesh;
@@ -86,6 +89,48 @@ fn entities_of<'a>(sets: impl Iterator<Item = &'a Vec<i64>>) -> (Vec<Vec<i64>>, 
         index.push(i + 1);
     }
     (distinct, index)
+}
+
+/// The Gmsh element type and node list of every tet: 10-node tets in Gmsh's node order (its
+/// mid-edge nodes 8 and 9 are tetsim's slots 5 and 4), or 4-node ones.
+fn tet_elements(mesh: &TetMesh) -> (i64, Vec<Vec<usize>>) {
+    if !mesh.is_quadratic() {
+        return (TET4, mesh.tets.iter().map(|t| t.to_vec()).collect());
+    }
+    let items = (0..mesh.tets.len())
+        .map(|t| {
+            let q = mesh.quadratic_nodes(t);
+            [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]
+                .iter()
+                .map(|&k| q[k])
+                .collect()
+        })
+        .collect();
+    (TET10, items)
+}
+
+/// The Gmsh element type and nodes of a group face: a 6-node triangle (corners, then the nodes
+/// on edges 01, 12, 20) when the mesh is quadratic and the face's edges are tets' edges, else
+/// the 3-node triangle.
+fn face_element(face: &[usize; 3], mids: &HashMap<(usize, usize), usize>) -> (i64, Vec<usize>) {
+    let mid = |a: usize, b: usize| mids.get(&(a.min(b), a.max(b))).copied();
+    let [p, q, r] = *face;
+    match (mid(p, q), mid(q, r), mid(r, p)) {
+        (Some(pq), Some(qr), Some(rp)) => (TRIANGLE6, vec![p, q, r, pq, qr, rp]),
+        _ => (2, face.to_vec()),
+    }
+}
+
+/// Each tet edge's mid-edge node, by its sorted corner pair (empty for a linear mesh).
+fn mid_edge_nodes(mesh: &TetMesh) -> HashMap<(usize, usize), usize> {
+    let mut mids = HashMap::new();
+    for (tet, e) in mesh.tets.iter().zip(&mesh.edge_nodes) {
+        for (k, [i, j]) in crate::mesh::quadratic::EDGES.iter().enumerate() {
+            let (a, b) = (tet[*i], tet[*j]);
+            mids.insert((a.min(b), a.max(b)), e[k]);
+        }
+    }
+    mids
 }
 
 /// Token writer: text separated by spaces, or little-endian binary with 8-byte `size_t`.
@@ -233,8 +278,10 @@ fn write_v41(
         o.raw("\n")?;
     }
     o.raw("$EndNodes\n$Elements\n")?;
-    // Blocks: one per (dim, entity): points, triangles, tets.
+    // Blocks: one per (dim, entity, type): points, triangles, tets.
     let mut blocks: Vec<(i64, usize, i64, Vec<Vec<usize>>)> = Vec::new();
+    let mids = mid_edge_nodes(mesh);
+    let (tet_type, tet_nodes) = tet_elements(mesh);
     for (e, _) in points.iter().enumerate() {
         let items = p
             .points
@@ -246,21 +293,27 @@ fn write_v41(
         blocks.push((0, e + 1, 15, items));
     }
     for (e, _) in surfaces.iter().enumerate() {
-        let items = p
+        // A block holds one element type: 6-node and 3-node triangles apart.
+        let mut by_type: BTreeMap<i64, Vec<Vec<usize>>> = BTreeMap::new();
+        for (f, _) in p
             .faces
             .values()
             .zip(&face_entity)
             .filter(|(_, fe)| **fe == e + 1)
-            .map(|(f, _)| f.0.to_vec())
-            .collect();
-        blocks.push((2, e + 1, 2, items));
+        {
+            let (ty, nodes) = face_element(&f.0, &mids);
+            by_type.entry(ty).or_default().push(nodes);
+        }
+        for (ty, items) in by_type {
+            blocks.push((2, e + 1, ty, items));
+        }
     }
     for (e, _) in volumes.iter().enumerate() {
         let items = (0..mesh.tets.len())
             .filter(|&t| tet_entity.get(t).copied().unwrap_or(1) == e + 1)
-            .map(|t| mesh.tets[t].to_vec())
+            .map(|t| tet_nodes[t].clone())
             .collect();
-        blocks.push((3, e + 1, 4, items));
+        blocks.push((3, e + 1, tet_type, items));
     }
     let total: usize = blocks.iter().map(|b| b.3.len()).sum();
     for v in [blocks.len(), total, 1.min(total), total] {
@@ -302,7 +355,7 @@ fn write_v22(w: &mut dyn Write, mesh: &TetMesh, p: &Physicals) -> std::io::Resul
         + p.tet_tags.iter().map(copies).sum::<usize>();
     writeln!(w, "{total}")?;
     let mut id = 0;
-    let mut line = |w: &mut dyn Write, ty: u32, tags: &Vec<i64>, nodes: &[usize]| {
+    let mut line = |w: &mut dyn Write, ty: i64, tags: &Vec<i64>, nodes: &[usize]| {
         let list: Vec<i64> = if tags.is_empty() {
             vec![0]
         } else {
@@ -321,11 +374,14 @@ fn write_v22(w: &mut dyn Write, mesh: &TetMesh, p: &Physicals) -> std::io::Resul
     for (&v, tags) in &p.points {
         line(w, 15, tags, &[v])?;
     }
+    let mids = mid_edge_nodes(mesh);
     for (face, tags) in p.faces.values() {
-        line(w, 2, tags, face)?;
+        let (ty, nodes) = face_element(face, &mids);
+        line(w, ty, tags, &nodes)?;
     }
-    for (t, tet) in mesh.tets.iter().enumerate() {
-        line(w, 4, &p.tet_tags[t], tet)?;
+    let (tet_type, tet_nodes) = tet_elements(mesh);
+    for (t, nodes) in tet_nodes.iter().enumerate() {
+        line(w, tet_type, &p.tet_tags[t], nodes)?;
     }
     w.write_all(b"$EndElements\n")
 }
