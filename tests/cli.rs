@@ -16,6 +16,8 @@ mod contact;
 mod contact_trust;
 #[path = "cli/modes.rs"]
 mod modes;
+#[path = "cli/quadratic.rs"]
+mod quadratic;
 #[path = "cli/resume.rs"]
 mod resume;
 #[path = "cli/trust.rs"]
