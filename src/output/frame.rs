@@ -60,7 +60,11 @@ impl FrameTaker {
         let (tets, edge_nodes, rest) = match sim.renumbering() {
             Some(r) => (
                 r.tets_to_old_mesh(&mesh.tets),
-                r.tets_to_old_mesh(&mesh.edge_nodes),
+                if mesh.is_quadratic() {
+                    r.tets_to_old_mesh(&mesh.edge_nodes)
+                } else {
+                    Vec::new()
+                },
                 r.vertices_to_old(&mesh.positions),
             ),
             None => (
