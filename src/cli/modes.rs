@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use tetsim::io::vtu::{Field, write_pvd, write_vtu};
+use tetsim::io::vtu::{Field, write_pvd, write_quadratic_vtu, write_vtu};
 use tetsim::modes::{Mode, Modes, ModesParams, VibrationProblem};
 use tetsim::render::{self, Bounds, FieldKind, RenderMesh, RenderParams, SceneView};
 use tetsim::{Scene, Simulation, Vec3};
@@ -100,6 +100,8 @@ fn write_modes(sim: &Simulation, modes: &Modes, out: &Path) -> anyhow::Result<us
         ),
         None => (body.mesh.positions.clone(), body.mesh.tets.clone()),
     };
+    // Quadratic tets: 10-node cells, so that a mode's bent elements are drawn curved.
+    let quadratic = sim.input_quadratic_tets();
     let mut entries = Vec::with_capacity(modes.modes.len());
     for (i, mode) in modes.modes.iter().enumerate() {
         let shape = match sim.renumbering() {
@@ -107,13 +109,11 @@ fn write_modes(sim: &Simulation, modes: &Modes, out: &Path) -> anyhow::Result<us
             None => mode.shape.clone(),
         };
         let name = format!("mode_{i:02}.vtu");
-        write_vtu(
-            &out.join(&name),
-            &rest,
-            &tets,
-            &[("shape", Field::Vector(&shape))],
-            &[],
-        )?;
+        let point_data = [("shape", Field::Vector(&shape))];
+        match &quadratic {
+            Some(cells) => write_quadratic_vtu(&out.join(&name), &rest, cells, &point_data, &[])?,
+            None => write_vtu(&out.join(&name), &rest, &tets, &point_data, &[])?,
+        }
         entries.push((i as f64, name));
     }
     write_pvd(&out.join("modes.pvd"), &entries)?;
