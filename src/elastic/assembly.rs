@@ -13,12 +13,12 @@ use super::*;
 #[derive(Clone, Debug, Default)]
 pub struct AssemblyWork {
     /// Rows per chunk.
-    pub(super) chunk_rows: usize,
+    chunk_rows: usize,
     /// The number of rows and tets the lists were made for.
-    pub(super) made_for: (usize, usize),
+    made_for: (usize, usize),
     /// Chunk c's tets are `tets[tet_start[c]..tet_start[c + 1]]`, in increasing order.
-    pub(super) tet_start: Vec<u32>,
-    pub(super) tets: Vec<u32>,
+    tet_start: Vec<u32>,
+    tets: Vec<u32>,
 }
 
 impl AssemblyWork {
@@ -29,7 +29,7 @@ impl AssemblyWork {
     }
 
     /// Lay out the work for `tets` on `rows` rows.
-    pub(super) fn prepare<const N: usize>(&mut self, tets: &[[usize; N]], rows: usize) {
+    fn prepare<const N: usize>(&mut self, tets: &[[usize; N]], rows: usize) {
         // Two chunks per thread, at least 256 rows each: few chunks keep the tets computed
         // twice few (a tet straddles chunks only near their borders: on the bench beam's
         // lattice order, 19 % of the tets at n = 20 with four chunks, 37 % with eight), two
@@ -128,41 +128,65 @@ impl ElasticBody {
         if let Some(q) = self.quadratic() {
             return self.quadratic_write_stiffness(q, lin, scale, a, work, overwrite);
         }
-        let tets = &self.mesh.tets;
-        if work.made_for != (a.rows(), tets.len()) {
-            work.prepare(tets, a.rows());
+        let element = |t: usize| element_stiffness(&lin.tangents[t], &self.bm[t], self.volume[t]);
+        write_elements(
+            &self.mesh.tets,
+            element,
+            upper_index,
+            scale,
+            a,
+            work,
+            overwrite,
+        );
+    }
+}
+
+/// `a (+)= scale·Σ K_e` over elements of N nodes (see [`ElasticBody::write_stiffness`]):
+/// `element(t)` gives element t's upper blocks, block (i, j), i ≤ j, at `upper(i, j)`.
+/// Chunks of rows in parallel, each adding its rows' blocks in element order: the same bits for
+/// any thread count.
+pub(super) fn write_elements<const N: usize, const B: usize>(
+    elements: &[[usize; N]],
+    element: impl Fn(usize) -> [Mat3; B] + Sync,
+    upper: fn(usize, usize) -> usize,
+    scale: f64,
+    a: &mut BlockCsr,
+    work: &mut AssemblyWork,
+    overwrite: bool,
+) {
+    if work.made_for != (a.rows(), elements.len()) {
+        work.prepare(elements, a.rows());
+    }
+    let work = &*work;
+    a.for_each_row_chunk_mut(work.chunk_rows, |c, rows, pattern, mut blocks| {
+        if overwrite {
+            blocks.fill_zero();
         }
-        let work = &*work;
-        a.for_each_row_chunk_mut(work.chunk_rows, |c, rows, pattern, mut blocks| {
-            if overwrite {
-                blocks.fill_zero();
-            }
-            let first = pattern.row_start[rows.start] as usize;
-            let list = &work.tets[work.tet_start[c] as usize..work.tet_start[c + 1] as usize];
-            for &t in list {
-                let t = t as usize;
-                let e = element_stiffness(&lin.tangents[t], &self.bm[t], self.volume[t]);
-                let tet = &tets[t];
-                for i in 0..4 {
-                    if !rows.contains(&tet[i]) {
-                        continue;
-                    }
-                    let range = pattern.row(tet[i]);
-                    let cols = &pattern.cols[range.clone()];
-                    let start = range.start - first;
-                    for j in 0..4 {
-                        let block = if i <= j {
-                            e[upper_index(i, j)]
-                        } else {
-                            e[upper_index(j, i)].transpose()
-                        };
-                        let k = cols
-                            .binary_search(&(tet[j] as u32))
-                            .expect("the pattern holds the mesh's");
-                        blocks.add(start + k, &(block * scale));
-                    }
+        let first = pattern.row_start[rows.start] as usize;
+        let list = &work.tets[work.tet_start[c] as usize..work.tet_start[c + 1] as usize];
+        for &t in list {
+            let t = t as usize;
+            let e = element(t);
+            let nodes = &elements[t];
+            for i in 0..N {
+                if !rows.contains(&nodes[i]) {
+                    continue;
+                }
+                let range = pattern.row(nodes[i]);
+                let cols = &pattern.cols[range.clone()];
+                let start = range.start - first;
+                for j in 0..N {
+                    let block = if i <= j {
+                        e[upper(i, j)]
+                    } else {
+                        e[upper(j, i)].transpose()
+                    };
+                    let k = cols
+                        .binary_search(&(nodes[j] as u32))
+                        .expect("the pattern holds the mesh's");
+                    blocks.add(start + k, &(block * scale));
                 }
             }
-        });
-    }
+        }
+    });
 }

@@ -38,16 +38,28 @@ impl ElasticBody {
         assert_eq!(damping.velocities.len(), self.vertex_count());
         assert_eq!(kv.len(), self.vertex_count());
         assert_eq!(lin.tangents.len(), self.point_count());
-        if let Some(q) = self.quadratic() {
-            self.quadratic_damped_forces_into(q, x, damping, lin, forces, kv);
-            let shifted = damping.shift != 0.0;
-            lin.tangents_pending = shifted;
-            if !shifted {
-                lin.exact_active = false;
-                lin.count_tets();
-            }
-            return lin.chunk_energy.iter().sum();
+        match self.quadratic() {
+            Some(q) => self.quadratic_damped_forces_into(q, x, damping, lin, forces, kv),
+            None => self.linear_damped_forces_into(x, damping, lin, forces, kv),
         }
+        let shifted = damping.shift != 0.0;
+        lin.tangents_pending = shifted;
+        if !shifted {
+            lin.exact_active = false;
+            lin.count_tets();
+        }
+        lin.chunk_energy.iter().sum()
+    }
+
+    /// The linear tets' pass of [`ElasticBody::damped_forces_into`].
+    fn linear_damped_forces_into(
+        &self,
+        x: &[Vec3],
+        damping: &Damping<'_>,
+        lin: &mut Linearization,
+        forces: &mut [Vec3],
+        kv: &mut [Vec3],
+    ) {
         if lin.damping.len() != self.tet_count() {
             lin.damping = vec![[Vec3::zeros(); 3]; self.tet_count()];
         }
@@ -110,12 +122,6 @@ impl ElasticBody {
             });
         self.incidence.gather(&lin.buffer, forces, false);
         self.incidence.gather(&lin.damping, kv, false);
-        lin.tangents_pending = shifted;
-        if !shifted {
-            lin.exact_active = false;
-            lin.count_tets();
-        }
-        lin.chunk_energy.iter().sum()
     }
 
     /// The tangents half of [`ElasticBody::linearize_damped_into`]: Newton's tangents at
@@ -127,18 +133,22 @@ impl ElasticBody {
         }
         assert_eq!(x.len(), self.vertex_count());
         assert_eq!(damping.velocities.len(), self.vertex_count());
-        if let Some(q) = self.quadratic() {
-            self.quadratic_damped_tangents_into(q, x, damping, lin);
-            lin.tangents_pending = false;
-            lin.exact_active = false;
-            lin.count_tets();
-            return;
-        }
         let how = damping.tangent(lin.definiteness);
-        // G = F + θ·dF_v of tet t; its SVDs are made in batches.
-        let g_of = |t: usize| {
-            let df_v = TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[t]) * self.bm[t];
-            let f = self.deformation_gradient(x, t);
+        let quadratic = self.quadratic();
+        // Points per tet: a linear tet is its own one point.
+        let per_tet = quadratic.map_or(1, |_| super::quadratic::POINTS);
+        // G = F + θ·dF_v at point p; its SVDs are made in batches.
+        let g_of = |p: usize| {
+            let (f, df_v) = match quadratic {
+                Some(q) => (
+                    q.deformation_gradient(x, p),
+                    q.deformation_gradient(damping.velocities, p),
+                ),
+                None => (
+                    self.deformation_gradient(x, p),
+                    TetMesh::edge_matrix(damping.velocities, &self.mesh.tets[p]) * self.bm[p],
+                ),
+            };
             crate::material::shifted_deformation(&f, &df_v, damping.shift)
         };
         let svd = self.uses_svd();
@@ -152,13 +162,8 @@ impl ElasticBody {
                 let g_in_chunk = |k: usize| g_of(first + k);
                 self.with_svds(svd, tangents.len(), g_in_chunk, |k, g, s| {
                     let exact = alternate.as_deref_mut().map(|a| &mut a[k]);
-                    self.model_of(first + k).damped_tangent_svd_into(
-                        g,
-                        s,
-                        &how,
-                        &mut tangents[k],
-                        exact,
-                    );
+                    self.model_of((first + k) / per_tet)
+                        .damped_tangent_svd_into(g, s, &how, &mut tangents[k], exact);
                 });
             });
         lin.tangents_pending = false;

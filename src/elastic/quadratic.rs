@@ -180,8 +180,8 @@ impl QuadraticElements {
 
     /// The upper blocks (a ≤ b, row-major) of tet t's 30×30 stiffness,
     /// `K[(a,i),(b,j)] = Σ_q w_q ⟨∂P/∂F : (eⱼ ⊗ G_b), eᵢ ⊗ Gₐ⟩`, from its points' tangents.
-    pub(super) fn element_stiffness(&self, t: usize, tangents: &[Tangent]) -> Vec<Mat3> {
-        let mut blocks = vec![Mat3::zeros(); 55];
+    pub(super) fn element_stiffness(&self, t: usize, tangents: &[Tangent]) -> [Mat3; 55] {
+        let mut blocks = [Mat3::zeros(); 55];
         for q in 0..POINTS {
             let p = POINTS * t + q;
             let (g, w) = (&self.grads[p], self.weights[p]);

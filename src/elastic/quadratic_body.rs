@@ -37,12 +37,10 @@ impl ElasticBody {
             .into_par_iter()
             .with_min_len(TETS_PER_CHUNK)
             .map(|t| {
-                let values: Vec<(f64, T)> = (0..POINTS)
-                    .map(|k| {
-                        let p = POINTS * t + k;
-                        (q.weights[p], each(t, &q.deformation_gradient(x, p)))
-                    })
-                    .collect();
+                let values: [(f64, T); POINTS] = std::array::from_fn(|k| {
+                    let p = POINTS * t + k;
+                    (q.weights[p], each(t, &q.deformation_gradient(x, p)))
+                });
                 reduce(&values)
             })
             .collect()
@@ -191,42 +189,8 @@ impl ElasticBody {
         work: &mut AssemblyWork,
         overwrite: bool,
     ) {
-        let elements = &q.nodes;
-        if work.made_for != (a.rows(), elements.len()) {
-            work.prepare(elements, a.rows());
-        }
-        let work = &*work;
-        a.for_each_row_chunk_mut(work.chunk_rows, |c, rows, pattern, mut blocks| {
-            if overwrite {
-                blocks.fill_zero();
-            }
-            let first = pattern.row_start[rows.start] as usize;
-            let list = &work.tets[work.tet_start[c] as usize..work.tet_start[c + 1] as usize];
-            for &t in list {
-                let t = t as usize;
-                let e = q.element_stiffness(t, &lin.tangents);
-                let nodes = &elements[t];
-                for i in 0..10 {
-                    if !rows.contains(&nodes[i]) {
-                        continue;
-                    }
-                    let range = pattern.row(nodes[i]);
-                    let cols = &pattern.cols[range.clone()];
-                    let start = range.start - first;
-                    for j in 0..10 {
-                        let block = if i <= j {
-                            e[upper_index10(i, j)]
-                        } else {
-                            e[upper_index10(j, i)].transpose()
-                        };
-                        let k = cols
-                            .binary_search(&(nodes[j] as u32))
-                            .expect("the pattern holds the mesh's");
-                        blocks.add(start + k, &(block * scale));
-                    }
-                }
-            }
-        });
+        let element = |t: usize| q.element_stiffness(t, &lin.tangents);
+        assembly::write_elements(&q.nodes, element, upper_index10, scale, a, work, overwrite);
     }
 
     /// [`ElasticBody::damped_forces_into`] for a quadratic body: the forces, `K_d·v` and (without
@@ -287,42 +251,6 @@ impl ElasticBody {
             );
         q.gather(&lin.buffer10, forces, false);
         q.gather(&lin.damping10, kv, false);
-    }
-
-    /// [`ElasticBody::damped_tangents_into`]'s tangents at `x + θ·v` for a quadratic body.
-    pub(super) fn quadratic_damped_tangents_into(
-        &self,
-        q: &QuadraticElements,
-        x: &[Vec3],
-        damping: &Damping<'_>,
-        lin: &mut Linearization,
-    ) {
-        let how = damping.tangent(lin.definiteness);
-        let g_of = |p: usize| {
-            let df_v = q.deformation_gradient(damping.velocities, p);
-            let f = q.deformation_gradient(x, p);
-            crate::material::shifted_deformation(&f, &df_v, damping.shift)
-        };
-        let svd = self.uses_svd();
-        let alternate = damped::alternate_chunks(&mut lin.alternate, lin.tangents.len());
-        lin.tangents
-            .par_chunks_mut(CHUNK)
-            .zip(alternate)
-            .enumerate()
-            .for_each(|(c, (tangents, mut alternate))| {
-                let first = c * CHUNK;
-                let g_in_chunk = |k: usize| g_of(first + k);
-                self.with_svds(svd, tangents.len(), g_in_chunk, |k, g, s| {
-                    let exact = alternate.as_deref_mut().map(|a| &mut a[k]);
-                    self.model_of((first + k) / POINTS).damped_tangent_svd_into(
-                        g,
-                        s,
-                        &how,
-                        &mut tangents[k],
-                        exact,
-                    );
-                });
-            });
     }
 }
 
