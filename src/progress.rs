@@ -26,8 +26,14 @@ pub struct FrameReport {
     /// Final residual relative to the step's first (steps.csv's `relative_residual`; the
     /// absolute one, in N, is its `residual`).
     pub residual: f64,
+    /// Final residual in N (steps.csv's `residual`).
+    pub absolute_residual: f64,
     /// Whether every solve of the frame converged.
     pub converged: bool,
+    /// Converged with a relative residual above the tolerance, on an absolute criterion (a
+    /// residual below what rounding resolves, or contact's step-size rule): said so in the
+    /// summary, which would otherwise read as a contradiction.
+    pub within_floor: bool,
     /// Smallest J = det F over the tets at the end of the frame.
     pub min_j: f64,
     /// Wall-clock time spent on the frame (s).
@@ -59,8 +65,11 @@ pub struct RunTotals {
     pub cg_iterations: usize,
     /// The most Newton iterations of one frame, and that frame.
     pub max_newton: Option<(usize, usize)>,
-    /// The largest final residual, and its frame (non-finite residuals count as largest).
+    /// The largest final relative residual, and its frame (non-finite residuals count as
+    /// largest).
     pub worst_residual: Option<(f64, usize)>,
+    /// The worst frame's absolute residual (N), when it converged on an absolute criterion.
+    pub worst_within_floor: Option<f64>,
     /// The smallest min J, and its frame.
     pub min_j: Option<(f64, usize)>,
     /// Frames that did not converge, in the order reported.
@@ -82,6 +91,7 @@ impl RunTotals {
         let worse = |old: f64| !r.residual.is_finite() && old.is_finite() || r.residual > old;
         if self.worst_residual.is_none_or(|(old, _)| worse(old)) {
             self.worst_residual = Some((r.residual, r.frame));
+            self.worst_within_floor = r.within_floor.then_some(r.absolute_residual);
         }
         let lower = |old: f64| r.min_j.is_nan() && !old.is_nan() || r.min_j < old;
         if self.min_j.is_none_or(|(old, _)| lower(old)) {
@@ -102,7 +112,10 @@ enum Output {
 /// The progress display of one run.
 pub struct RunDisplay {
     output: Output,
+    /// The run's last frame.
     total: usize,
+    /// The frame the display starts after (a resumed run's checkpoint; 0 for a new run).
+    first: usize,
     totals: RunTotals,
     start: Instant,
     /// Time spent drawing pictures and plots, reported apart from the simulation's.
@@ -113,16 +126,29 @@ impl RunDisplay {
     /// A display for a run of `total_frames` frames (the frames to compute, not counting the
     /// initial state).
     pub fn new(total_frames: usize, mode: DisplayMode) -> Self {
+        Self::resumed(0, total_frames, mode)
+    }
+
+    /// A display for a run that goes on from frame `first` to frame `last`: the bar and the
+    /// lines count frames of the whole run (`frame 560/3000`), the rate and ETA those computed
+    /// now.
+    pub fn resumed(first: usize, last: usize, mode: DisplayMode) -> Self {
         let terminal = std::io::stderr().is_terminal();
         let output = match mode {
             DisplayMode::Quiet => Output::Quiet,
             DisplayMode::Plain => Output::Plain,
             DisplayMode::Auto if !terminal => Output::Plain,
-            DisplayMode::Auto | DisplayMode::Bar => Output::Bar(progress_bar(total_frames)),
+            DisplayMode::Auto | DisplayMode::Bar => {
+                let bar = progress_bar(last);
+                bar.set_position(first.min(last) as u64);
+                bar.reset_eta();
+                Output::Bar(bar)
+            }
         };
         RunDisplay {
             output,
-            total: total_frames,
+            total: last,
+            first: first.min(last),
             totals: RunTotals::default(),
             start: Instant::now(),
             pictures: Duration::ZERO,
@@ -143,13 +169,13 @@ impl RunDisplay {
                     let _ = write!(msg, "  {} not converged", self.totals.not_converged.len());
                 }
                 bar.set_message(msg);
-                bar.set_position(done as u64);
+                bar.set_position((self.first + done) as u64);
             }
             Output::Plain => {
-                let stride = (self.total / 20).max(1);
+                let stride = ((self.total - self.first) / 20).max(1);
                 if done == 1
                     || done.is_multiple_of(stride)
-                    || done >= self.total
+                    || self.first + done >= self.total
                     || !report.converged
                 {
                     eprintln!("{}", self.plain_line(report));
@@ -198,7 +224,7 @@ impl RunDisplay {
             0.0
         };
         let eta = if rate > 0.0 {
-            self.total.saturating_sub(done) as f64 / rate
+            self.total.saturating_sub(self.first + done) as f64 / rate
         } else {
             0.0
         };
@@ -288,10 +314,14 @@ pub fn summary(
         ),
     );
     if let Some((r, f)) = totals.worst_residual {
+        let floor = match totals.worst_within_floor {
+            Some(abs) => format!("; converged on an absolute criterion: residual {abs:.2e} N"),
+            None => String::new(),
+        };
         row(
             &mut s,
             "worst relative residual",
-            &format!("{r:.2e} (frame {f})"),
+            &format!("{r:.2e} (frame {f}{floor})"),
         );
     }
     if let Some((j, f)) = totals.min_j {
@@ -414,7 +444,9 @@ mod tests {
             newton_iterations: newton,
             cg_iterations: 10 * newton,
             residual,
+            absolute_residual: residual * 1e3,
             converged,
+            within_floor: false,
             min_j,
             wall_seconds: 0.01,
         }
@@ -469,6 +501,38 @@ mod tests {
         );
         assert!(s.contains("animation.gif"), "{s}");
         assert!(s.contains("min J"), "{s}");
+    }
+
+    #[test]
+    fn resumed_display_counts_the_whole_run() {
+        let mut d = RunDisplay::resumed(560, 2441, DisplayMode::Plain);
+        d.frame_done(&report(561, 2, 1e-9, true, 1.0));
+        let line = d.plain_line(&report(561, 2, 1e-9, true, 1.0));
+        assert!(line.starts_with("frame 561/2441 "), "{line}");
+    }
+
+    #[test]
+    fn a_frame_converged_on_the_floor_says_so_beside_its_residual() {
+        let mut totals = RunTotals::default();
+        totals.add(&FrameReport {
+            within_floor: true,
+            absolute_residual: 3.1e-9,
+            ..report(12, 1, 9.98e-2, true, 1.0)
+        });
+        let s = summary(
+            &totals,
+            Duration::from_secs(1),
+            Duration::ZERO,
+            Path::new("o"),
+            &[],
+        );
+        assert!(
+            s.contains(
+                "9.98e-2 (frame 12; converged on an absolute criterion: residual 3.10e-9 N)"
+            ),
+            "{s}"
+        );
+        assert!(s.contains("not converged           none"), "{s}");
     }
 
     #[test]

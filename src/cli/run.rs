@@ -130,8 +130,15 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
 
     let first = sim.frame();
     let frames = sim.params.frames;
-    let mut display = RunDisplay::new(
-        frames.saturating_sub(first),
+    // A finished run resumed: its files are checked (above) and its manifest rewritten, but
+    // nothing is computed or drawn again unless its pictures are missing.
+    let complete = checkpoint.is_some() && first >= frames;
+    if checkpoint.is_some() && !complete && !quiet {
+        eprintln!("resuming {} after frame {first} of {frames}", out.display());
+    }
+    let mut display = RunDisplay::resumed(
+        first,
+        frames,
         // -v logs one line per frame (below); a progress display beside it would interleave.
         if quiet || verbose > 0 {
             DisplayMode::Quiet
@@ -192,7 +199,10 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
             newton_iterations: stats.newton_iterations,
             cg_iterations: stats.cg_iterations,
             residual: stats.relative_residual,
+            absolute_residual: stats.residual,
             converged: stats.converged,
+            within_floor: stats.converged
+                && stats.relative_residual > sim.params.newton_tolerance,
             min_j: stats.min_j,
             wall_seconds: stats.wall_seconds,
         });
@@ -211,6 +221,18 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     let mut files = recorder.files().to_vec();
     let mut picture_error = None;
     let drawing = std::time::Instant::now();
+    let drawn = !scene.output.pictures || out.join("preview.png").is_file();
+    if complete && drawn {
+        if !quiet {
+            eprintln!(
+                "the run in {} is already complete ({frames} frames, its files checked); \
+                 nothing to do. To go on: tetsim run --resume {} --frames N",
+                out.display(),
+                shell_word(&out)
+            );
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
     if !interrupted {
         match draw(&scene, &pictures, &out, sim.frame()) {
             Ok(written) => files.extend(written),

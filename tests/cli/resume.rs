@@ -238,6 +238,57 @@ fn a_corrupted_checkpoint_another_version_or_none_is_refused() {
 }
 
 #[test]
+fn resume_counts_the_whole_run_says_when_complete_and_refuses_a_lost_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| tetsim(dir.path(), args);
+    let out = run(&["run", "--frames", "3", "--no-pictures", "--out", "out"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    // Finished: said so, nothing recomputed, exit 0.
+    let before = std::fs::read(dir.path().join("out/steps.csv")).unwrap();
+    let out = run(&["run", "--resume", "out"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("already complete (3 frames"),
+        "{}",
+        stderr(&out)
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("out/steps.csv")).unwrap(),
+        before
+    );
+
+    // Going on: progress lines count frames of the whole run.
+    let out = run(&["run", "--resume", "out", "--frames", "5"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("after frame 3 of 5"), "{err}");
+    assert!(err.contains("frame 4/5"), "{err}");
+
+    // An earlier frame edited, then deleted: refused with the frame named, nothing written.
+    let frame = dir.path().join("out/frame_0002.vtu");
+    let mut bytes = std::fs::read(&frame).unwrap();
+    bytes.push(b'\n');
+    std::fs::write(&frame, &bytes).unwrap();
+    let out = run(&["run", "--resume", "out", "--frames", "6"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("frame 2 was changed"),
+        "{}",
+        stderr(&out)
+    );
+    std::fs::remove_file(&frame).unwrap();
+    let out = run(&["run", "--resume", "out", "--frames", "6"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("frame_0002.vtu: frame 2 is missing"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!dir.path().join("out/frame_0006.vtu").exists());
+}
+
+#[test]
 fn bad_picture_settings_fail_before_the_first_frame() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
