@@ -852,7 +852,9 @@ fn progress_display_demo() {
             newton_iterations: newton,
             cg_iterations: 40 * newton + frame % 7,
             residual: 1e-7 / (1 + frame % 4) as f64,
+            absolute_residual: 1e-9 / (1 + frame % 4) as f64,
             converged: frame != 17,
+            within_floor: false,
             min_j: 1.0 - 0.004 * frame as f64,
             wall_seconds: 0.06,
         });
