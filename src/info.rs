@@ -574,27 +574,32 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
     );
     let _ = writeln!(
         s,
-        "bounding box: [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}] m",
-        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+        "bounding box: [{}, {}, {}] .. [{}, {}, {}] m",
+        num(lo[0]),
+        num(lo[1]),
+        num(lo[2]),
+        num(hi[0]),
+        num(hi[1]),
+        num(hi[2])
     );
-    let _ = writeln!(s, "volume: {:.6e} m³", info.volume);
-    let _ = writeln!(s, "mass: {:.6e} kg", info.mass);
+    let _ = writeln!(s, "volume: {} m³", num(info.volume));
+    let _ = writeln!(s, "mass: {} kg", num(info.mass));
     let _ = writeln!(s, "constrained components: {}", info.constrained_components);
     for m in &info.materials {
         let _ = writeln!(
             s,
-            "{} ({}, {} tets): E = {:.6e} Pa, ν = {:.6}, μ = {:.6e} Pa, λ = {:.6e} Pa, ρ = {:.6e} kg/m³; \
-             wave speeds: P {:.6e} m/s, S {:.6e} m/s",
+            "{} ({}, {} tets): E = {} Pa, ν = {}, μ = {} Pa, λ = {} Pa, ρ = {} kg/m³; \
+             wave speeds: P {} m/s, S {} m/s",
             m.name,
             m.model,
             m.tets,
-            m.youngs_modulus(),
-            m.poisson_ratio(),
-            m.mu,
-            m.lambda,
-            m.density,
-            m.p_wave_speed(),
-            m.s_wave_speed()
+            num(m.youngs_modulus()),
+            num(m.poisson_ratio()),
+            num(m.mu),
+            num(m.lambda),
+            num(m.density),
+            num(m.p_wave_speed()),
+            num(m.s_wave_speed())
         );
     }
     let f = &info.lowest_frequency;
@@ -609,9 +614,10 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
         (Some(hz), false) => {
             let _ = writeln!(
                 s,
-                "lowest frequency (estimate, an upper bound): {hz:.6e} Hz, period {:.6e} s \
+                "lowest frequency (estimate, an upper bound): {} Hz, period {} s \
                  ({} subspace iterations, last change {:.1e})",
-                1.0 / hz,
+                num(hz),
+                num(1.0 / hz),
                 f.iterations,
                 f.last_change
             );
@@ -629,11 +635,12 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
         Some(h) => {
             let _ = writeln!(
                 s,
-                "time step: dt = {:.6e} s, {} substep(s): h = {h:.6e} s; {} frames, {:.6e} s in all",
-                p.dt,
+                "time step: dt = {} s, {} substep(s): h = {} s; {} frames, {} s in all",
+                num(p.dt),
                 p.substeps,
+                num(h),
                 p.frames,
-                p.dt * p.frames as f64
+                num(p.dt * p.frames as f64)
             );
         }
         None => {
@@ -643,7 +650,8 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
     if let Some(dt) = info.backward_euler_accuracy_dt() {
         let _ = writeln!(
             s,
-            "suggested dt for backward Euler accuracy (T₁/20): {dt:.6e} s"
+            "suggested dt for backward Euler accuracy (T₁/20): {} s",
+            num(dt)
         );
     }
     if let Some(loss) = info.backward_euler_damping_per_period() {
@@ -659,33 +667,65 @@ pub fn report(info: &SceneInfo, sim: &Simulation) -> String {
             info.amplitude_kept_per_period(scheme)
                 .map_or("-".to_string(), |k| format!("{:.3} %", 100.0 * k))
         };
-        let _ = writeln!(
-            s,
-            "integrator: {}; the lowest mode keeps {} of its amplitude per period at h \
-             (backward-euler {}, bdf2 {}, newmark {})",
-            p.integrator.name(),
-            kept(p.integrator),
-            kept(Integrator::BackwardEuler),
-            kept(Integrator::Bdf2),
-            kept(Integrator::newmark()),
-        );
+        if info.amplitude_kept_per_period(p.integrator).is_some() {
+            let _ = writeln!(
+                s,
+                "integrator: {}; the lowest mode keeps {} of its amplitude per period at h \
+                 (backward-euler {}, bdf2 {}, newmark {})",
+                p.integrator.name(),
+                kept(p.integrator),
+                kept(Integrator::BackwardEuler),
+                kept(Integrator::Bdf2),
+                kept(Integrator::newmark()),
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "integrator: {} (no elastic mode to measure its damping by)",
+                p.integrator.name()
+            );
+        }
     }
     let _ = writeln!(
         s,
-        "explicit stability limit (min inradius / P-wave speed; not needed by backward Euler): {:.6e} s \
-         (min inradius {:.6e} m)",
-        info.explicit_stability_dt, info.min_inradius
+        "explicit stability limit (min inradius / P-wave speed; not needed by backward Euler): {} s \
+         (min inradius {} m)",
+        num(info.explicit_stability_dt),
+        num(info.min_inradius)
     );
     let _ = writeln!(
         s,
-        "damping: rayleigh_stiffness γ = {:e} s, rayleigh_mass α = {:e} 1/s; gravity [{}, {}, {}] m/s²",
-        p.rayleigh_stiffness,
-        p.rayleigh_mass,
-        sim.boundary.gravity[0],
-        sim.boundary.gravity[1],
-        sim.boundary.gravity[2]
+        "damping: rayleigh_stiffness γ = {} s, rayleigh_mass α = {} 1/s; gravity [{}, {}, {}] m/s²",
+        num(p.rayleigh_stiffness),
+        num(p.rayleigh_mass),
+        num(sim.boundary.gravity[0]),
+        num(sim.boundary.gravity[1]),
+        num(sim.boundary.gravity[2])
     );
     s
+}
+
+/// A number as people write it, to six significant digits: `8`, `0.008`, `10.351`, `36.69`,
+/// and `1.5e-9` or `2.1e11` beyond 1e-3 .. 1e6, trailing zeros dropped.
+pub fn num(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let a = x.abs();
+    if (1e-3..1e6).contains(&a) {
+        let decimals = (5 - a.log10().floor() as i32).max(0) as usize;
+        let text = format!("{x:.decimals$}");
+        if text.contains('.') {
+            text.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            text
+        }
+    } else {
+        let text = format!("{x:.5e}");
+        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+        format!("{mantissa}e{exponent}")
+    }
 }
 
 #[cfg(test)]

@@ -115,3 +115,18 @@ fn a_regular_tet_s_inradius() {
     let a = 2.0 * 2f64.sqrt();
     assert!((inradius(&x, &[0, 1, 2, 3]) - a / (2.0 * 6f64.sqrt())).abs() < 1e-14);
 }
+
+#[test]
+fn numbers_read_as_people_write_them() {
+    use super::num;
+    assert_eq!(num(4.0), "4");
+    assert_eq!(num(0.008), "0.008");
+    assert_eq!(num(36.68997), "36.69");
+    assert_eq!(num(10.35098), "10.351");
+    assert_eq!(num(1.785714e4), "17857.1");
+    assert_eq!(num(5e4), "50000");
+    assert_eq!(num(2.1e11), "2.1e11");
+    assert_eq!(num(-6.669472e-4), "-6.66947e-4");
+    assert_eq!(num(0.0), "0");
+    assert_eq!(num(-9.81), "-9.81");
+}

@@ -2,15 +2,15 @@
 //! checked with its own file ids, placed, and merged with the others into one mesh
 //! ([`Bodies::merge`]); regions with `body = "..."` filtered to that body.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, MeshProblem, Result};
 use crate::math::Vec3;
 use crate::mesh::TetMesh;
 use crate::mesh::bodies::{Bodies, Placement};
 use crate::mesh::ordering::Renumbering;
 use crate::mesh::quadratic::elevate;
 
-use super::locate::key;
-use super::schema::{MaterialSpec, Scene};
+use super::locate::{Seg, key};
+use super::schema::{MaterialSpec, MeshSpec, Scene};
 use super::validate::body_names;
 
 /// Which body each vertex and tet of the (possibly renumbered) simulation mesh belongs to.
@@ -96,6 +96,19 @@ impl Scene {
     pub(super) fn build_bodies(&self) -> Result<(TetMesh, Bodies)> {
         let names = body_names(self);
         let first = self.build_mesh()?;
+        // Elements are checked per body, in the body's own numbering, and blamed on what made
+        // them: the mesh file, the generator, or the body's scale and rotation.
+        let blame = |spec: &MeshSpec, at: &[Seg], problem: MeshProblem| match &spec.file {
+            Some(f) => Error::Mesh {
+                path: Some(self.resolve(f)),
+                problem,
+            },
+            None => self.error_at(&[at, &key!["generator"]].concat(), problem),
+        };
+        let first = match first.validate() {
+            Ok(()) => first,
+            Err(problem) => return Err(blame(&self.mesh, &key!["mesh"], problem)),
+        };
         if self.body.is_empty() {
             let first = if self.mesh.element_order() == 2 {
                 elevate(&first)
@@ -105,17 +118,12 @@ impl Scene {
             let bodies = Bodies::single(names[0].clone(), &first);
             return Ok((first, bodies));
         }
-        let checked = |mesh: TetMesh, file: Option<&std::path::PathBuf>| -> Result<TetMesh> {
-            mesh.validate().map_err(|problem| Error::Mesh {
-                path: file.map(|f| self.resolve(f)),
-                problem,
-            })?;
-            Ok(mesh)
-        };
-        let mut parts = vec![(names[0].clone(), checked(first, self.mesh.file.as_ref())?)];
+        let mut parts = vec![(names[0].clone(), first)];
         for (i, spec) in self.body.iter().enumerate() {
-            let mut mesh = self.build_mesh_spec(&spec.mesh, &key!["body", i, "mesh"])?;
-            mesh = checked(mesh, spec.mesh.file.as_ref())?;
+            let at = key!["body", i, "mesh"];
+            let mut mesh = self.build_mesh_spec(&spec.mesh, &at)?;
+            mesh.validate()
+                .map_err(|problem| blame(&spec.mesh, &at, problem))?;
             Placement {
                 scale: spec.scale,
                 rotate_degrees: spec.rotate_degrees,
@@ -123,7 +131,32 @@ impl Scene {
                 translate: Vec3::from(spec.translate),
             }
             .apply(&mut mesh);
+            if let Err(problem) = mesh.validate() {
+                let key = if spec.scale != 1.0 {
+                    "scale"
+                } else {
+                    "rotate_degrees"
+                };
+                return Err(self.error_at(
+                    &key!["body", i, key],
+                    format!("body \"{}\" once placed: {problem}", names[i + 1]),
+                ));
+            }
+            if let Some(problem) = super::validate::beyond_length_cap(&mesh.positions) {
+                return Err(self.error_at(
+                    &key!["body", i, "scale"],
+                    format!("body \"{}\" placed: {problem}", names[i + 1]),
+                ));
+            }
             parts.push((names[i + 1].clone(), mesh));
+        }
+        // Each body fitted alone; together they must fit too.
+        let tets: usize = parts.iter().map(|(_, m)| m.tets.len()).sum();
+        if let Some(why) = crate::resources::memory_shortfall(tets as f64) {
+            return Err(self.error_at(
+                &key!["body"],
+                format!("the scene's {} bodies together: {why}", parts.len()),
+            ));
         }
         // One order for the whole mesh: quadratic when asked or when any file is.
         if self.mesh.element_order() == 2 || parts.iter().any(|(_, m)| m.is_quadratic()) {

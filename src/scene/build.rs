@@ -96,10 +96,18 @@ impl Scene {
                     return Err(self.error_at(&key!["mesh", "file"], why));
                 }
                 let mut mesh = read.mesh;
-                if let Some(unit) = self.length_unit(spec, at)? {
+                let unit = self.length_unit(spec, at)?;
+                if let Some(unit) = unit {
                     for p in &mut mesh.positions {
                         *p = p.map(|c| unit.to_si(c));
                     }
+                }
+                if let Some(problem) = super::validate::beyond_length_cap(&mesh.positions) {
+                    let key = if unit.is_some() { "unit" } else { "file" };
+                    return Err(self.error_at(
+                        &[at, &key![key]].concat(),
+                        format!("{}: {problem}", path.display()),
+                    ));
                 }
                 Ok(mesh)
             }
@@ -196,19 +204,22 @@ impl Scene {
         let Some(zeta) = self.solver.damping_ratio else {
             return Ok(None);
         };
-        match self.solver.damping_frequencies {
-            Some(f) => Ok(Some(DampingResolution::new(zeta, f, false))),
-            None => DampingResolution::from_lowest_mode(zeta, body, free)
-                .map(Some)
-                .map_err(|e| {
-                    self.error_at(
-                        &key!["solver", "damping_ratio"],
-                        format!(
-                            "the default damping_frequencies need the lowest vibration mode, \
+        let resolved = match self.solver.damping_frequencies {
+            Some(f) => Ok(DampingResolution::new(zeta, f, false)),
+            None => DampingResolution::from_lowest_mode(zeta, body, free).map_err(|e| {
+                self.error_at(
+                    &key!["solver", "damping_ratio"],
+                    format!(
+                        "the default damping_frequencies need the lowest vibration mode, \
                              which was not found ({e}): give damping_frequencies = [f1, f2] (Hz)"
-                        ),
-                    )
-                }),
+                    ),
+                )
+            }),
+        }?;
+        let [f1, f2] = resolved.frequencies_hz;
+        match super::validate::derived_damping_problem(zeta, f1, f2) {
+            Some(problem) => Err(self.error_at(&key!["solver", "damping_ratio"], problem)),
+            None => Ok(Some(resolved)),
         }
     }
 
@@ -419,6 +430,12 @@ impl Scene {
                     *p = p.map(|c| unit.to_si(c));
                 }
             }
+            if let Some(problem) = super::validate::beyond_length_cap(&given) {
+                return Err(self.error_at(
+                    &key!["initial", "positions"],
+                    format!("{}: {problem}", path.display()),
+                ));
+            }
             x[first.start..first.start + given.len()].copy_from_slice(&given);
         }
         for b in 0..bodies.count() {
@@ -590,6 +607,9 @@ impl Simulation {
                     None if name == "contact.distance" => {
                         scene.error_at(&key!["contact", "distance"], message)
                     }
+                    // Bodies passing through each other or themselves at the start: located at
+                    // [contact], which asks for the check (the bodies' placements are theirs).
+                    None if name == "contact" => scene.error_at(&key!["contact"], message),
                     None => e,
                 },
                 _ => e,

@@ -64,6 +64,46 @@ fn limit(unit: &str) -> f64 {
     }
 }
 
+/// The first point (index, position) beyond the length cap (1e9 m, as for every length in a
+/// scene): a mesh file or a positions file in `unit = "Tm"`, or a body scaled far beyond any
+/// scene, is refused before its numbers overflow during the run.
+pub(crate) fn beyond_length_cap(points: &[crate::math::Vec3]) -> Option<String> {
+    let max = limit("m");
+    let (i, p) = points
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.iter().all(|c| c.abs() <= max))?;
+    Some(format!(
+        "vertex {} is at [{:e}, {:e}, {:e}] m, beyond the {max:.0e} m any length in a scene \
+         may have (is the unit or scale right?)",
+        i + 1,
+        p.x,
+        p.y,
+        p.z
+    ))
+}
+
+/// Rayleigh coefficients derived from a damping ratio, against the caps of the keys they fill
+/// (`rayleigh_mass`, 1/s; `rayleigh_stiffness`, s): a ratio at absurd frequencies must not
+/// give what those keys would refuse. The problem in words, if any.
+pub(crate) fn derived_damping_problem(zeta: f64, f1: f64, f2: f64) -> Option<String> {
+    let (alpha, gamma) = crate::modes::rayleigh_from_ratio(zeta, f1, f2);
+    [
+        ("rayleigh_mass", alpha, "1/s"),
+        ("rayleigh_stiffness", gamma, "s"),
+    ]
+    .into_iter()
+    .find(|(_, value, unit)| value.is_nan() || value.abs() > limit(unit))
+    .map(|(name, value, unit)| {
+        format!(
+            "damping ratio {zeta} at [{f1:e}, {f2:e}] Hz gives {name} = {value:.3e} {unit}, \
+                 beyond the {:.0e} {unit} that key accepts: choose frequencies the body can \
+                 vibrate at",
+            limit(unit)
+        )
+    })
+}
+
 /// Check every value of `scene` (parsed from `scene.source`); the first bad one in the file is
 /// the error.
 pub(super) fn validate(scene: &Scene) -> Result<()> {
@@ -128,7 +168,14 @@ fn join<'a>(base: &[Seg<'a>], tail: &[Seg<'a>]) -> Vec<Seg<'a>> {
 }
 
 fn vec3(v: [f64; 3]) -> String {
-    format!("[{}, {}, {}]", v[0], v[1], v[2])
+    let c = |x: f64| {
+        if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+            format!("{x:e}")
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("[{}, {}, {}]", c(v[0]), c(v[1]), c(v[2]))
 }
 
 impl Validator<'_> {
@@ -483,6 +530,31 @@ impl Validator<'_> {
     fn bodies(&mut self) {
         let scene = self.scene;
         let names = body_names(scene);
+        // Generator boxes that each fit may not fit together (mesh files are summed once read).
+        let generated = |m: &MeshSpec| match &m.generator {
+            Some(Generator::Box { cells, .. }) if m.file.is_none() => {
+                6.0 * cells.iter().map(|&c| c as f64).product::<f64>()
+            }
+            _ => 0.0,
+        };
+        let each: Vec<f64> = std::iter::once(&scene.mesh)
+            .chain(scene.body.iter().map(|b| &b.mesh))
+            .map(generated)
+            .collect();
+        let fits = |tets: f64| crate::resources::memory_shortfall(tets).is_none();
+        if each.iter().all(|&t| fits(t))
+            && let Some(why) = crate::resources::memory_shortfall(each.iter().sum())
+            && let Some(last) = each.iter().rposition(|&t| t > 0.0)
+        {
+            let key: Vec<Seg> = match last {
+                0 => key!["mesh", "generator", "box", "cells"].to_vec(),
+                i => key!["body", i - 1, "mesh", "generator", "box", "cells"].to_vec(),
+            };
+            self.fail(
+                &key,
+                format!("the scene's generator boxes together: {why}; use fewer cells"),
+            );
+        }
         if let Some(name) = &scene.mesh.name {
             self.name(&key!["mesh", "name"], name);
         }
@@ -491,11 +563,23 @@ impl Validator<'_> {
             let at = |k: &'static str| join(&base, &key![k]);
             if let Some(name) = &b.name {
                 self.name(&at("name"), name);
-                if names[..=i].contains(name) {
-                    self.fail(
+            }
+            // Names as the run uses them, defaults filled in: `[mesh] name = "body1"` and an
+            // unnamed first [[body]] (default "body1") would be two bodies of one name.
+            let name = &names[i + 1];
+            if names[..=i].contains(name) {
+                match &b.name {
+                    Some(_) => self.fail(
                         &at("name"),
                         format!("\"{name}\" names two bodies: every body needs its own name"),
-                    );
+                    ),
+                    None => self.fail(
+                        &base,
+                        format!(
+                            "this unnamed body's default name \"{name}\" is taken by another \
+                             body: give it a name = \"...\" of its own"
+                        ),
+                    ),
                 }
             }
             if b.mesh.name.is_some() {
@@ -640,10 +724,14 @@ impl Validator<'_> {
         }
         if let Some(p) = &o.plane {
             self.finite3(&at(&key!["plane", "point"]), p.point, "m");
-            if !(p.normal.iter().all(|c| c.is_finite()) && p.normal.iter().any(|&c| c != 0.0)) {
+            let norm = p.normal.iter().map(|c| c * c).sum::<f64>().sqrt();
+            if !(norm.is_finite() && norm > 0.0) {
                 self.fail(
                     &at(&key!["plane", "normal"]),
-                    format!("must be finite and non-zero, got {}", vec3(p.normal)),
+                    format!(
+                        "must be a finite, non-zero direction (its length too), got {}",
+                        vec3(p.normal)
+                    ),
                 );
             }
         }

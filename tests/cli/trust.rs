@@ -349,3 +349,118 @@ fn convert_says_which_groups_a_format_drops() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("3 of 3 groups"));
     assert!(!stderr(&out).contains("dropped"));
 }
+
+/// Like [`refused`], with `files` (name, text) written beside s.toml.
+fn refused_with(files: &[(&str, String)], text: &str, line: usize, key: &str, word: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, body) in files {
+        std::fs::write(dir.path().join(name), body).unwrap();
+    }
+    std::fs::write(dir.path().join("s.toml"), text).unwrap();
+    let out = tetsim(
+        dir.path(),
+        &["run", "s.toml", "--out", "out", "--no-pictures", "-q"],
+    );
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{text}\n{err}");
+    let at = format!("error: s.toml:{line}:");
+    assert!(err.starts_with(&at), "expected {at} in\n{err}");
+    assert!(err.contains(key), "{key} not in {err}");
+    assert!(err.contains(word), "{word} not in {err}");
+    assert!(!dir.path().join("out/frame_0001.vtu").exists(), "{err}");
+}
+
+#[test]
+fn values_that_arrive_by_files_units_defaults_or_derivation_are_refused_at_their_place() {
+    const CUBE: &str = "generator = { box = { min = [0,0,0], max = [1,1,1], cells = [1,1,1] } }";
+    let node = "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n".to_string();
+    let ele = "1 4 0\n1 1 2 3 4\n".to_string();
+    let tet = [("t.node", node), ("t.ele", ele)];
+    // A mesh file's coordinates after its unit, against the cap of every length.
+    refused_with(
+        &tet,
+        "[mesh]\nfile = \"t.node\"\nunit = \"Tm\"\n",
+        3,
+        "mesh.unit",
+        "t.node: vertex 2 is at [1e12",
+    );
+    // Initial positions far beyond any scene.
+    let far = "1e300 0 0\n".to_string() + &"0 0 0\n".repeat(7);
+    refused_with(
+        &[("p.txt", far)],
+        &format!("[mesh]\n{CUBE}\n[initial]\npositions = \"p.txt\"\n"),
+        4,
+        "initial.positions",
+        "p.txt: vertex 1 is at [1e300",
+    );
+    let cases: &[(String, usize, &str, &str)] = &[
+        // A normal whose length overflows.
+        (
+            format!("[mesh]\n{CUBE}\n[[obstacle]]\nplane = {{ point = [0, -1, 0], normal = [0, 1e308, 1e308] }}\n"),
+            4,
+            "plane.normal",
+            "[0, 1e308, 1e308]",
+        ),
+        // Rayleigh coefficients derived from a ratio, against the caps of their own keys.
+        (
+            format!("[mesh]\n{CUBE}\n[solver]\ndamping_ratio = 0.05\ndamping_frequencies = [1e-300, 1e-299]\n"),
+            5,
+            "solver.damping_frequencies",
+            "rayleigh_stiffness = 1.447e297 s",
+        ),
+        // Names unique once defaults are filled in.
+        (
+            format!("[mesh]\n{CUBE}\nname = \"body1\"\n[[body]]\nmesh = {{ generator = {{ box = {{ min = [2,0,0], max = [3,1,1], cells = [1,1,1] }} }} }}\n"),
+            4,
+            "[[body]] #1",
+            "default name \"body1\" is taken",
+        ),
+        // Degenerate elements blamed on what made them.
+        (
+            "[mesh]\ngenerator = { box = { min = [0,0,0], max = [1,1,1e-300], cells = [1,1,1] } }\n".into(),
+            2,
+            "mesh.generator",
+            "degenerate elements",
+        ),
+        (
+            format!("[mesh]\n{CUBE}\n[[body]]\nmesh = {{ generator = {{ box = {{ min = [2,0,0], max = [3,1,1], cells = [1,1,1] }} }} }}\nscale = 1e-200\n"),
+            5,
+            "[[body]] #1 scale",
+            "body \"body1\" once placed: degenerate elements",
+        ),
+        // Bodies passing through each other at the start: at [contact].
+        (
+            format!("[mesh]\n{CUBE}\n[[body]]\nmesh = {{ generator = {{ box = {{ min = [0.5,0,0], max = [1.5,1,1], cells = [1,1,1] }} }} }}\n[contact]\n"),
+            5,
+            "contact",
+            "passing through body",
+        ),
+    ];
+    for (text, line, key, word) in cases {
+        refused(text, *line, key, word);
+    }
+}
+
+#[test]
+fn bodies_that_each_fit_in_memory_are_refused_when_together_they_do_not() {
+    let Some(available) = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        let line = t.lines().find(|l| l.starts_with("MemAvailable:"))?;
+        line.split_whitespace().nth(1)?.parse::<f64>().ok()
+    }) else {
+        return; // no estimate where the memory is unknown
+    };
+    // Each box about 60 % of what is available (2,000 bytes a tet, 6 tets a cell).
+    let cells = (0.6 * available * 1024.0 / 2000.0 / 6.0).cbrt().ceil() as usize;
+    let bx = |x: f64| {
+        format!(
+            "{{ box = {{ min = [{x},0,0], max = [{},1,1], cells = [{cells},{cells},{cells}] }} }}",
+            x + 1.0
+        )
+    };
+    let text = format!(
+        "[mesh]\ngenerator = {}\n[[body]]\nmesh = {{ generator = {} }}\n",
+        bx(0.0),
+        bx(2.0)
+    );
+    refused(&text, 4, "body", "generator boxes together");
+}

@@ -114,8 +114,10 @@ impl Validator<'_> {
                     &key,
                     format!("the second frequency must be above the first (Hz), got [{f1}, {f2}]"),
                 );
-            } else {
-                self.bounded(&key, f2, "Hz");
+            } else if self.bounded(&key, f2, "Hz")
+                && let Some(problem) = derived_damping_problem(zeta, f1, f2)
+            {
+                self.fail(&key, problem);
             }
         }
     }
