@@ -156,6 +156,26 @@ fn gmsh_round_trips_are_exact_with_groups() {
 }
 
 #[test]
+fn vtu_keeps_groups_as_named_arrays_of_linear_and_quadratic_tets() {
+    for name in ["beam_v41.msh", "box10_v41.msh"] {
+        let mesh = read(name);
+        assert!(!mesh.groups.is_empty(), "{name}");
+        let back = round_trip(&mesh, "out.vtu");
+        assert_eq!(back.positions, mesh.positions, "{name}");
+        assert_eq!(back.tets, mesh.tets, "{name}");
+        assert_eq!(back.edge_nodes, mesh.edge_nodes, "{name}");
+        assert_eq!(back.groups.len(), mesh.groups.len(), "{name}");
+        for (b, g) in back.groups.iter().zip(&mesh.groups) {
+            // Names, members and dimension come back; a VTU array has no numeric tag.
+            assert_eq!((&b.name, b.dim), (&g.name, g.dim), "{name}");
+            assert_eq!(b.vertices, g.vertices, "{name} {}", g.name);
+            assert_eq!(b.faces, g.faces, "{name} {}", g.name);
+            assert_eq!(b.tets, g.tets, "{name} {}", g.name);
+        }
+    }
+}
+
+#[test]
 fn every_format_round_trips_positions_and_tets_exactly() {
     let mut rng = common::rng(7);
     let mesh = common::small_mesh(&mut rng);

@@ -70,8 +70,9 @@ pub fn run(cmd: MeshCommand) -> anyhow::Result<()> {
                 _ => io::write_mesh(&output, &read.mesh),
             };
             written.with_context(|| format!("cannot convert {}", input.display()))?;
-            // Count the groups the written file gives back, not the ones we had: VTU and VTK
-            // hold no named groups, and a user converting must not believe they came along.
+            // Count the groups the written file gives back, not the ones we had: legacy VTK,
+            // TetGen and OBJ hold no named groups, and a user converting must not believe they
+            // came along.
             let had = read.mesh.groups.len();
             let kept = io::parse_mesh(&output).map_or(0, |(p, _)| {
                 read.mesh

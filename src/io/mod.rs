@@ -26,6 +26,7 @@ pub mod tetgen;
 pub(crate) mod text;
 pub mod vtk;
 pub mod vtu;
+mod vtu_groups;
 mod vtu_write;
 mod xml;
 
@@ -265,13 +266,7 @@ pub fn write_mesh(path: &Path, mesh: &TetMesh) -> Result<()> {
         Format::Gmsh => gmsh::write(path, mesh, gmsh::Version::V41, false),
         Format::TetGen => tetgen::write(path, mesh),
         Format::Vtk => vtk::write(path, mesh, true),
-        Format::Vtu if mesh.is_quadratic() => {
-            let cells: Vec<[usize; 10]> = (0..mesh.tets.len())
-                .map(|t| mesh.quadratic_nodes(t))
-                .collect();
-            vtu::write_quadratic_vtu(path, &mesh.positions, &cells, &[], &[])
-        }
-        Format::Vtu => write_vtu(path, &mesh.positions, &mesh.tets, &[], &[]),
+        Format::Vtu => vtu_groups::write_mesh_vtu(path, mesh),
         Format::Medit => medit::write(path, mesh),
         Format::Obj => obj::write_obj(path, &mesh.positions, &mesh.boundary_faces()),
     }

@@ -354,6 +354,8 @@ pub(super) struct Grid {
     pub types: Vec<i64>,
     pub point_data: Vec<(String, FieldData)>,
     pub cell_data: Vec<(String, FieldData)>,
+    /// (cell data?, name) of the `UInt8` data arrays: group flags (see [`super::vtu_groups`]).
+    pub flags: Vec<(bool, String)>,
 }
 
 pub(super) fn parse_grid(path: &Path) -> Result<Grid> {
@@ -421,6 +423,7 @@ pub(super) fn parse_grid(path: &Path) -> Result<Grid> {
         types: Vec::new(),
         point_data: Vec::new(),
         cell_data: Vec::new(),
+        flags: Vec::new(),
     };
     for piece in grid.children.iter().filter(|c| c.name == "Piece") {
         let count = |name: &str| -> Result<usize> {
@@ -486,6 +489,10 @@ pub(super) fn parse_grid(path: &Path) -> Result<Grid> {
         ] {
             for a in piece.child(section).map_or(&[][..], |s| &s.children[..]) {
                 let name = a.attr("Name").unwrap_or("").to_string();
+                let flag = (section == "CellData", name.clone());
+                if a.attr("type") == Some("UInt8") && !g.flags.contains(&flag) {
+                    g.flags.push(flag);
+                }
                 let (values, comps) = layout.array(a, &offsets)?;
                 if values.len() != n * comps {
                     return Err(err(
@@ -520,7 +527,37 @@ fn append_field(a: &mut FieldData, b: FieldData) {
 /// Read a `.vtu` file as a tet mesh (for [`super::read_mesh`]).
 pub fn read(path: &Path) -> Result<Parsed> {
     let g = parse_grid(path)?;
-    tets_from_cells(path, g.points, &g.offsets, &g.connectivity, &g.types)
+    let mut parsed = tets_from_cells(path, g.points, &g.offsets, &g.connectivity, &g.types)?;
+    if !g.flags.is_empty() {
+        // The cells as (type, nodes); offsets were checked by `tets_from_cells`.
+        let cells: Vec<(i64, Vec<usize>)> = g
+            .types
+            .iter()
+            .zip(g.offsets.windows(2))
+            .map(|(&ty, w)| {
+                let nodes = g.connectivity[w[0] as usize..w[1] as usize]
+                    .iter()
+                    .map(|&v| v as usize)
+                    .collect();
+                (ty, nodes)
+            })
+            .collect();
+        let tet_cells: Vec<usize> = parsed
+            .mesh
+            .tet_ids
+            .iter()
+            .flatten()
+            .map(|&c| c as usize)
+            .collect();
+        parsed.mesh.groups = super::vtu_groups::read_groups(
+            &g.flags,
+            &g.point_data,
+            &g.cell_data,
+            &cells,
+            &tet_cells,
+        );
+    }
+    Ok(parsed)
 }
 
 /// Read a `.vtu` frame back: points, tets and data arrays (e.g. tetsim's `frame_NNNN.vtu`).

@@ -153,35 +153,75 @@ pub(super) fn write_cells<const N: usize>(
         }
         Field::Vector(v) => (vec_bytes(v), 3),
     };
-    // (section, name, type, components, bytes)
-    let mut arrays: Vec<(&str, String, &str, usize, Vec<u8>)> = Vec::new();
-    for (name, f) in point_data {
-        let (b, c) = field_bytes(f);
-        arrays.push(("PointData", name.to_string(), "Float64", c, b));
+    let mut arrays: Vec<Array> = Vec::new();
+    for (section, data) in [("PointData", point_data), ("CellData", cell_data)] {
+        for (name, f) in data {
+            let (bytes, components) = field_bytes(f);
+            arrays.push(Array {
+                section,
+                name: name.to_string(),
+                ty: "Float64",
+                components,
+                bytes,
+            });
+        }
     }
-    for (name, f) in cell_data {
-        let (b, c) = field_bytes(f);
-        arrays.push(("CellData", name.to_string(), "Float64", c, b));
-    }
-    arrays.push(("Points", "Points".into(), "Float64", 3, vec_bytes(points)));
-    let conn: Vec<u8> = tets
+    let conn: Vec<i64> = tets.iter().flatten().map(|&v| v as i64).collect();
+    let ends: Vec<i64> = (1..=tets.len() as i64).map(|k| N as i64 * k).collect();
+    arrays.extend(geometry(points, &conn, &ends, vec![cell_type; tets.len()]));
+    write_arrays(path, points.len(), tets.len(), &arrays, options)
+}
+
+/// One data array of a VTU file: its section (`PointData`, `CellData`, `Points`, `Cells`;
+/// consecutive arrays of a section are written in one element), name, XML type, components
+/// per item, and little-endian bytes.
+pub(super) struct Array {
+    pub section: &'static str,
+    pub name: String,
+    pub ty: &'static str,
+    pub components: usize,
+    pub bytes: Vec<u8>,
+}
+
+/// The `Points` and `Cells` arrays: positions, connectivity, cell ends and VTK cell types.
+pub(super) fn geometry(
+    points: &[Vec3],
+    connectivity: &[i64],
+    ends: &[i64],
+    types: Vec<u8>,
+) -> [Array; 4] {
+    let ints = |v: &[i64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let array = |section, name: &str, ty, components, bytes| Array {
+        section,
+        name: name.into(),
+        ty,
+        components,
+        bytes,
+    };
+    let xyz = points
         .iter()
-        .flatten()
-        .flat_map(|&v| (v as i64).to_le_bytes())
+        .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()))
         .collect();
-    let offs: Vec<u8> = (1..=tets.len() as i64)
-        .flat_map(|k| (N as i64 * k).to_le_bytes())
+    [
+        array("Points", "Points", "Float64", 3, xyz),
+        array("Cells", "connectivity", "Int64", 1, ints(connectivity)),
+        array("Cells", "offsets", "Int64", 1, ints(ends)),
+        array("Cells", "types", "UInt8", 1, types),
+    ]
+}
+
+/// Write `arrays` (in section order) as a VTU file of one piece.
+pub(super) fn write_arrays(
+    path: &Path,
+    points: usize,
+    cells: usize,
+    arrays: &[Array],
+    options: VtuOptions,
+) -> Result<()> {
+    let payloads: Vec<Vec<u8>> = arrays
+        .iter()
+        .map(|a| payload(&a.bytes, options.zlib))
         .collect();
-    arrays.push(("Cells", "connectivity".into(), "Int64", 1, conn));
-    arrays.push(("Cells", "offsets".into(), "Int64", 1, offs));
-    arrays.push((
-        "Cells",
-        "types".into(),
-        "UInt8",
-        1,
-        vec![cell_type; tets.len()],
-    ));
-    let payloads: Vec<Vec<u8>> = arrays.iter().map(|a| payload(&a.4, options.zlib)).collect();
     atomic_write(path, |w| {
         let compressor = if options.zlib {
             " compressor=\"vtkZLibDataCompressor\""
@@ -196,28 +236,27 @@ pub(super) fn write_cells<const N: usize>(
         writeln!(
             w,
             "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">",
-            points.len(),
-            tets.len()
+            points, cells
         )?;
         let mut offset = 0;
         let mut open: Option<&str> = None;
         for (a, p) in arrays.iter().zip(&payloads) {
-            if open != Some(a.0) {
+            if open != Some(a.section) {
                 if let Some(s) = open {
                     writeln!(w, "      </{s}>")?;
                 }
-                writeln!(w, "      <{}>", a.0)?;
-                open = Some(a.0);
+                writeln!(w, "      <{}>", a.section)?;
+                open = Some(a.section);
             }
-            let comps = if a.3 == 1 {
+            let comps = if a.components == 1 {
                 String::new()
             } else {
-                format!(" NumberOfComponents=\"{}\"", a.3)
+                format!(" NumberOfComponents=\"{}\"", a.components)
             };
             let head = format!(
                 "        <DataArray type=\"{}\" Name=\"{}\"{comps}",
-                a.2,
-                xml::escape(&a.1)
+                a.ty,
+                xml::escape(&a.name)
             );
             if options.base64 {
                 // Compressed: header and data encoded apart, as VTK does and meshio expects.

@@ -339,6 +339,11 @@ fn convert_says_which_groups_a_format_drops() {
     let out = tetsim(dir.path(), &["mesh", "convert", "beam_v41.msh", "a.vtu"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("3 of 3 groups"), "{stdout}");
+    assert!(!stderr(&out).contains("dropped"), "{}", stderr(&out));
+    let out = tetsim(dir.path(), &["mesh", "convert", "beam_v41.msh", "a.vtk"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("0 of 3 groups"), "{stdout}");
     assert!(
         stderr(&out).contains("3 groups dropped"),
