@@ -316,7 +316,10 @@ fn info_reports_mass_volume_wave_speeds_and_the_manifest_holds_the_same() {
     let text = tetsim(dir.path(), &["info", "s.toml"]);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
-        text.contains(&format!("mass: {:.6e} kg", number(&info["mass"]))),
+        text.contains(&format!(
+            "mass: {} kg",
+            tetsim::info::num(number(&info["mass"]))
+        )),
         "{text}"
     );
     // `tetsim run` writes the same object into manifest.json, but for the frequency estimate,
