@@ -64,6 +64,19 @@ fn limit(unit: &str) -> f64 {
     }
 }
 
+/// Why `value` is refused when its magnitude is beyond its unit's [`limit`] (NaN and inf are
+/// left to the callers' own checks). The library's setters between frames (`sim::control`) use
+/// it too, so a value set from code meets the cap and the words of the same key in a scene.
+pub(crate) fn beyond_limit(value: f64, unit: &str) -> Option<String> {
+    let max = limit(unit);
+    (value.is_finite() && value.abs() > max).then(|| {
+        format!(
+            "{value:e} is beyond any physical value: at most {max:.0e} ({unit}) is accepted, as \
+             larger values overflow double precision during the run"
+        )
+    })
+}
+
 /// Check every value of `scene` (parsed from `scene.source`); the first bad one in the file is
 /// the error.
 pub(super) fn validate(scene: &Scene) -> Result<()> {
@@ -150,18 +163,13 @@ impl Validator<'_> {
 
     /// |value| ≤ the unit's [`limit`] (NaN and inf are reported by the callers' own checks).
     fn bounded(&mut self, key: &[Seg], value: f64, unit: &str) -> bool {
-        let max = limit(unit);
-        if value.is_finite() && value.abs() > max {
-            self.fail(
-                key,
-                format!(
-                    "{value:e} is beyond any physical value: at most {max:.0e} ({unit}) is \
-                     accepted, as larger values overflow double precision during the run"
-                ),
-            );
-            return false;
+        match beyond_limit(value, unit) {
+            Some(why) => {
+                self.fail(key, why);
+                false
+            }
+            None => true,
         }
-        true
     }
 
     /// `value` > 0 and finite.
