@@ -3,7 +3,9 @@
 Scene.load(path) or Scene.from_dict(d) describe a run, Simulation(scene) steps it (step(),
 run(out_dir)), read_mesh / write_mesh read and write tet meshes, and Material evaluates a
 constitutive model on deformation gradients. Arrays are numpy float64 / int64, C-contiguous;
-every error is a tetsim.Error (a ValueError) with the command line's message.
+numbers are Python or numpy numbers, or strings with a unit where the scene key takes one
+("1 MPa", "5 mm"). Every error is a tetsim.Error with the command line's message: a bad value,
+a wrong type, a missing or unknown argument alike, its key naming the argument.
 """
 
 from os import PathLike
@@ -28,13 +30,26 @@ model's recovery form, after a tangled or inverted start)."""
 _Path = Union[str, "PathLike[str]"]
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
-_Vec3 = Sequence[float]
+_Real = Union[float, int, np.floating, np.integer]
+_Quantity = Union[_Real, str]
+"""A number in the key's SI unit, or a string with a unit as a scene file takes it ("5 mm")."""
+_Vec3 = Union[Sequence[_Quantity], npt.NDArray[Any]]
+_Index = Union[int, np.integer]
 
-class Error(ValueError):
+class Error(ValueError, TypeError):
     """A bad input or a run that cannot go on: str(e) is the command line's message.
 
     Scene files: '<file>:<line>:<column>: <key>: <what is wrong>'; Scene.from_dict and
-    Material leave out the location of the TOML text they make and keep the key.
+    Material leave out the location of the TOML text they make and keep the key. An argument of
+    the module's own functions: '<argument>: <what is wrong>', e.g. "index: there is no
+    [[fixed]] entry 3 (the scene has 1 [[fixed]] entry, numbered 0)" or "youngs_modulus: \"1 m\"
+    is a length, but this key takes a pressure or stress (Pa, e.g. \"1.2 MPa\")".
+
+    Every refusal raises this class: a value out of range, NaN or inf, a value beyond the cap
+    of its unit in a scene (1e9 m, 1e8 m/s, ...), a wrong type, a missing argument, a positional
+    argument too many, an unknown keyword (with the nearest known one), a dict or list that
+    contains itself. It derives from ValueError and from TypeError, so `except ValueError` and
+    `except TypeError` written for Python's own errors keep catching it.
     """
 
     message: str
@@ -47,7 +62,7 @@ class Error(ValueError):
     """1-based column in a scene file."""
     key: Optional[str]
     """The scene key or argument, e.g. 'solver.dt', '[[fixed]] #1 motion.translate',
-    'positions', 'poisson_ratio', or None."""
+    'positions', 'poisson_ratio', 'index', 'path' (a file that cannot be opened), or None."""
     frame: Optional[int]
     """The frame that failed (a step that cannot go on), or None."""
 
@@ -72,7 +87,9 @@ class Scene:
         numpy arrays for values. Relative paths are relative to base_dir (default: the current
         folder).
 
-        Raises Error whose key names the bad key (e.g. 'solver.frobnicate').
+        Raises Error whose key names the bad key (e.g. 'solver.frobnicate', 'fixed[0].region'),
+        also for None or a type TOML has not, a dict or list that contains itself, and values
+        nested more than 32 levels deep.
         """
 
     @staticmethod
@@ -141,9 +158,9 @@ class Simulation:
     def positions(self) -> _F64:
         """Current positions, m: (n, 3) float64, a copy.
 
-        Setting it moves every vertex (checked like [initial] positions: n finite rows, none
-        inside an obstacle); constrained components are set again by their constraint at the
-        next step.
+        Setting it moves every vertex (checked like [initial] positions: n finite rows, each
+        coordinate within 1e9 m, none inside an obstacle); constrained components are set again
+        by their constraint at the next step. A refused value changes nothing.
         """
 
     @positions.setter
@@ -153,8 +170,9 @@ class Simulation:
     def velocities(self) -> _F64:
         """Current velocities, m/s: (n, 3) float64, a copy.
 
-        Setting it checks n finite rows; constrained components are set to zero (their
-        constraint moves them); a quasistatic run accepts only zeros.
+        Setting it checks n finite rows, each component within 1e8 m/s (the cap of [initial]
+        velocity); constrained components are set to zero (their constraint moves them); a
+        quasistatic run accepts only zeros. A refused value changes nothing.
         """
 
     @velocities.setter
@@ -192,29 +210,35 @@ class Simulation:
     def fixed_count(self) -> int:
         """How many [[fixed]] entries the scene has (index them from 0)."""
 
-    def fixed_vertices(self, index: int) -> _I64:
+    def fixed_vertices(self, index: _Index) -> _I64:
         """The vertices of [[fixed]] entry `index` (0-based: [[fixed]] #1 is 0), sorted: (k,)
         int64. set_fixed_targets takes one target per vertex, in this order."""
 
     def set_fixed_motion(
         self,
-        index: int,
-        translate: _Vec3 = (0.0, 0.0, 0.0),
-        rotate_degrees: float = 0.0,
-        axis: _Vec3 = (1.0, 0.0, 0.0),
-        center: _Vec3 = (0.0, 0.0, 0.0),
-        duration: Optional[float] = None,
+        index: _Index,
+        translate: Optional[_Vec3] = (0.0, 0.0, 0.0),
+        rotate_degrees: Optional[_Quantity] = 0.0,
+        axis: Optional[_Vec3] = (1.0, 0.0, 0.0),
+        center: Optional[_Vec3] = (0.0, 0.0, 0.0),
+        duration: Optional[_Quantity] = None,
     ) -> None:
         """Give [[fixed]] entry `index` a new motion of its frame-0 positions, with the checks of
         the scene's `motion` and `duration` keys: rotate by rotate_degrees about axis through
         center, then translate; ramped linearly over duration seconds from the start of the run
         (None: the whole run; 0: at once). Takes effect at the next step and replaces targets
-        set by set_fixed_targets."""
+        set by set_fixed_targets. None for any other argument is its default.
 
-    def set_fixed_targets(self, index: int, targets: _F64) -> None:
+        Each value is a number in the key's unit or a string with a unit, as in a scene
+        (translate=("5 mm", 0, 0), rotate_degrees="0.5 rad", duration="200 ms"). Raises Error,
+        changing nothing, for an index that is not an entry, a value that is not finite or is
+        beyond its unit's cap (1e9 m, 1e9 degrees, 1e12 s), or a rotation about a zero axis."""
+
+    def set_fixed_targets(self, index: _Index, targets: _F64) -> None:
         """Hold the vertices of [[fixed]] entry `index` at `targets` ((k, 3) float64, one finite
-        row per vertex of fixed_vertices(index), in its order) from the next step on, in place
-        of the entry's motion. Only its constrained components follow."""
+        row per vertex of fixed_vertices(index), in its order, each coordinate within 1e9 m)
+        from the next step on, in place of the entry's motion. Only its constrained components
+        follow."""
 
 class Mesh:
     """A tet mesh read from a file."""
@@ -265,12 +289,15 @@ class Material:
         self,
         model: str = "neo-hookean",
         *,
-        youngs_modulus: Optional[float] = None,
-        poisson_ratio: Optional[float] = None,
-        mu: Optional[float] = None,
-        lam: Optional[float] = None,
-        inversion_threshold: Optional[float] = None,
-    ) -> None: ...
+        youngs_modulus: Optional[_Quantity] = None,
+        poisson_ratio: Optional[_Quantity] = None,
+        mu: Optional[_Quantity] = None,
+        lam: Optional[_Quantity] = None,
+        inversion_threshold: Optional[_Quantity] = None,
+    ) -> None:
+        """Moduli as numbers in Pa or strings with a unit ("1.2 MPa"), as [material] takes them;
+        None (or left out) for the scene's default. Raises Error naming the argument for a value
+        the scene would refuse (Poisson ratio 0.5, NaN, 1e300 Pa, ...) or of the wrong type."""
 
     @property
     def inversion_threshold(self) -> Optional[float]:
@@ -297,15 +324,20 @@ class Material:
         """Poisson ratio ν."""
 
     def energy(self, F: _F64) -> _F64:
-        """Energy density Ψ(F), J/m³: (k, 3, 3) float64 -> (k,) float64."""
+        """Energy density Ψ(F), J/m³: (k, 3, 3) float64 -> (k,) float64.
+
+        Raises Error (key 'F') naming the first F[i] that holds NaN or inf, or whose result
+        overflows double precision; never returns NaN or inf."""
 
     def stress(self, F: _F64) -> _F64:
-        """First Piola-Kirchhoff stress P(F), Pa: (k, 3, 3) -> (k, 3, 3) float64."""
+        """First Piola-Kirchhoff stress P(F), Pa: (k, 3, 3) -> (k, 3, 3) float64 (refusing
+        non-finite F as energy does)."""
 
     def tangent(self, F: _F64, definiteness: str = "none") -> _F64:
         """∂P/∂F, Pa: (k, 3, 3) -> (k, 9, 9) float64 with T[k, 3i+j, 3l+m] = ∂P_ij/∂F_lm, so that
         (T @ dF.reshape(k, 9, 1)).reshape(k, 3, 3) is the stress differential.
 
-        definiteness: 'none' (the exact derivative), or the solver's positive semi-definite
-        fixes 'teran', 'analytic', 'abs', 'adaptive'.
+        definiteness: 'none' (the exact derivative; also None), or the solver's positive
+        semi-definite fixes 'teran', 'analytic', 'abs', 'adaptive'. Refuses non-finite F as
+        energy does.
         """

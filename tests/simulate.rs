@@ -2189,3 +2189,54 @@ fn fixed_vertices_go_where_they_are_moved_between_steps() {
     assert!(sim.set_fixed_targets(0, &targets[1..]).is_err());
     assert!(sim.fixed_vertices(1).is_err());
 }
+
+#[test]
+fn values_set_between_frames_meet_the_scene_caps_before_anything_changes() {
+    let mut sim = gmsh_beam(2);
+    let n = sim.body.vertex_count();
+    let (x0, v0) = (sim.state.x.clone(), sim.state.v.clone());
+    let c0 = &sim.boundary.constraints[0];
+    let (motion0, duration0) = (c0.motion, c0.duration);
+    let beyond = |e: tetsim::Error| {
+        let msg = e.to_string();
+        assert!(msg.contains("beyond any physical value"), "{msg}");
+        e.key().unwrap().to_string()
+    };
+    // A velocity of 1e300 m/s once ran and reported a converged step.
+    let err = sim.set_velocities(&vec![Vec3::new(0.0, 1e300, 0.0); n]);
+    assert_eq!(beyond(err.unwrap_err()), "velocities");
+    let err = sim.set_positions(&vec![Vec3::repeat(1e10); n]);
+    assert_eq!(beyond(err.unwrap_err()), "positions");
+    let k = sim.fixed_vertices(0).unwrap().len();
+    let err = sim.set_fixed_targets(0, &vec![Vec3::new(1e10, 0.0, 0.0); k]);
+    assert_eq!(beyond(err.unwrap_err()), "[[fixed]] #1 targets");
+    let motion = |f: &dyn Fn(&mut tetsim::boundary::Motion)| {
+        let mut m = tetsim::boundary::Motion::default();
+        f(&mut m);
+        m
+    };
+    let far = motion(&|m| m.translate.x = 1e10);
+    let err = sim.set_fixed_motion(0, far, None).unwrap_err();
+    assert_eq!(beyond(err), "[[fixed]] #1 motion.translate");
+    let spun = motion(&|m| m.rotate_degrees = 1e300);
+    let err = sim.set_fixed_motion(0, spun, None).unwrap_err();
+    assert_eq!(beyond(err), "[[fixed]] #1 motion.rotate_degrees");
+    let err = sim.set_fixed_motion(0, motion(&|_| {}), Some(1e300));
+    assert_eq!(beyond(err.unwrap_err()), "[[fixed]] #1 duration");
+    // A rotation needs an axis it can normalise: zero, or so small its norm underflows.
+    for axis in [Vec3::zeros(), Vec3::new(1e-320, 0.0, 0.0)] {
+        let m = motion(&|m| {
+            m.rotate_degrees = 30.0;
+            m.axis = axis;
+        });
+        let err = sim.set_fixed_motion(0, m, None).unwrap_err();
+        assert_eq!(err.key(), Some("[[fixed]] #1 motion.axis"));
+        assert!(err.to_string().contains("non-zero axis"), "{err}");
+    }
+    // Nothing refused reached the state or the constraint; the run goes on as before.
+    assert_eq!((&sim.state.x, &sim.state.v), (&x0, &v0));
+    assert!(sim.boundary.constraints[0].targets.is_none());
+    let c = &sim.boundary.constraints[0];
+    assert_eq!((c.motion, c.duration), (motion0, duration0));
+    assert!(sim.step().unwrap().converged);
+}

@@ -1,18 +1,47 @@
-//! `tetsim.Error`: the library's [`tetsim::Error`] as a Python `ValueError` with attributes, and
-//! the argument errors of the bindings themselves (wrong dtype, shape, index).
+//! `tetsim.Error`: the library's [`tetsim::Error`] as a Python exception with attributes, and
+//! the argument errors of the bindings themselves (wrong type, dtype, shape, index, keyword).
+//!
+//! The class derives from both `ValueError` and `TypeError`: every bad argument, whether its
+//! value or its type is wrong, raises this one class naming the argument, while code written
+//! `except ValueError` (values) or `except TypeError` (types, as Python's own argument errors
+//! are) keeps catching what it caught before.
 
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyTuple, PyType};
 
-pyo3::create_exception!(
-    tetsim,
-    Error,
-    PyValueError,
-    "A bad input or a run that cannot go on: str(e) is the command line's message.\n\n\
+const DOC: &str = "A bad input or a run that cannot go on: str(e) is the command line's message.\n\n\
+     Raised for every bad argument, of a wrong value or of a wrong type, so it derives from both \
+     ValueError and TypeError.\n\n\
      Attributes: message (str, the same as str(e)), file (str or None), line (int or None, \
      1-based), column (int or None), key (the scene key or argument, e.g. 'solver.dt', or None), \
-     frame (int or None: the frame that failed)."
-);
+     frame (int or None: the frame that failed).";
+
+static ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+/// The class `tetsim.Error` (made once, on first use).
+pub fn error_type(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    ERROR
+        .get_or_try_init(py, || {
+            let builtins = py.import("builtins")?;
+            let bases = PyTuple::new(
+                py,
+                [
+                    builtins.getattr("ValueError")?,
+                    builtins.getattr("TypeError")?,
+                ],
+            )?;
+            let namespace = PyDict::new(py);
+            namespace.set_item("__module__", "tetsim")?;
+            namespace.set_item("__doc__", DOC)?;
+            let class = builtins
+                .getattr("type")?
+                .call1(("Error", bases, namespace))?
+                .cast_into::<PyType>()?;
+            Ok(class.unbind())
+        })
+        .map(|class| class.bind(py))
+}
 
 /// Where the text of a scene came from: a file (locations are real) or Python values
 /// (`Scene.from_dict`, `Material`: the TOML text is made here, so its lines mean nothing to the
@@ -40,8 +69,11 @@ impl Fields {
     /// Raise these as a `tetsim.Error`.
     pub fn raise(self) -> PyErr {
         Python::attach(|py| {
-            let err = Error::new_err(self.message.clone());
-            let value = err.value(py);
+            let value = match error_type(py).and_then(|class| class.call1((&self.message,))) {
+                Ok(value) => value,
+                Err(e) => return e,
+            };
+            let err = PyErr::from_value(value.clone());
             let set = |name: &str, v: Bound<'_, PyAny>| value.setattr(name, v);
             let results = [
                 set(
@@ -113,6 +145,20 @@ pub fn from_lib(error: tetsim::Error, origin: Origin) -> PyErr {
         },
     };
     Fields { key, ..fields }.raise()
+}
+
+/// A library error about the file or folder an argument names: the command line's message, with
+/// the key set to the argument when the operating system refused that very path (missing,
+/// unreadable), so that `e.key` says which argument to fix.
+pub fn for_path(error: tetsim::Error, origin: Origin, key: &str, given: &std::path::Path) -> PyErr {
+    let about_it = matches!(&error, tetsim::Error::Io { path, .. } if path == given);
+    let err = from_lib(error, origin);
+    if about_it {
+        Python::attach(|py| {
+            let _ = err.value(py).setattr("key", key);
+        });
+    }
+    err
 }
 
 /// An error about an argument of a binding (`key` names it), with no file.

@@ -2,10 +2,12 @@
 //! tetsim library, with numpy arrays in and out.
 //!
 //! Every entry point checks its arguments the way the scene file checks the same values, and every
-//! error is a `tetsim.Error` (a `ValueError`) carrying the command line's message, the file, the
-//! line and the key. The GIL is released while the library steps, and a run checks for Ctrl-C
+//! error is a `tetsim.Error` (a `ValueError` and a `TypeError`) carrying the command line's
+//! message, the file, the line and the key: wrong types, missing arguments and unknown keywords
+//! too, named by the argument (`args`), never Python's bare `TypeError`. The GIL is released while the library steps, and a run checks for Ctrl-C
 //! between frames.
 
+mod args;
 mod arrays;
 mod errors;
 mod material;
@@ -26,7 +28,7 @@ use pyo3::prelude::*;
 fn tetsim_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("Error", py.get_type::<errors::Error>())?;
+    m.add("Error", errors::error_type(py)?)?;
     m.add_class::<scene::Scene>()?;
     m.add_class::<simulation::Simulation>()?;
     m.add_class::<mesh::Mesh>()?;

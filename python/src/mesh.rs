@@ -1,14 +1,13 @@
 //! `tetsim.read_mesh` and `tetsim.write_mesh`: tet meshes in the formats tetsim reads and writes.
 
-use std::path::PathBuf;
-
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 use tetsim::TetMesh;
 use tetsim::mesh::Group;
 
+use crate::args::{self, Signature};
 use crate::arrays;
-use crate::errors::{LibResult, argument};
+use crate::errors::{Origin, argument, for_path};
 
 /// A tet mesh read from a file: vertices (n, 3) float64, tets (m, 4) int64 ((m, 10) for 10-node
 /// tets: corners, then the nodes on edges 01, 12, 02, 03, 13, 23), groups (dict: name
@@ -55,11 +54,26 @@ fn group_name(g: &Group) -> String {
 ///
 /// Raises tetsim.Error naming the file and line of a malformed file.
 #[pyfunction]
-#[pyo3(signature = (path, force=false))]
-pub fn read_mesh(py: Python<'_>, path: PathBuf, force: bool) -> PyResult<Mesh> {
+#[pyo3(signature = (path=None, force=None, *extra, **unknown), text_signature = "(path, force=False)")]
+pub fn read_mesh(
+    py: Python<'_>,
+    path: Option<&Bound<'_, PyAny>>,
+    force: Option<&Bound<'_, PyAny>>,
+    extra: &Bound<'_, PyTuple>,
+    unknown: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Mesh> {
+    let call = "read_mesh";
+    Signature {
+        call,
+        positional: &["path", "force"],
+        keyword: &[],
+    }
+    .check(extra, unknown)?;
+    let path = args::path(args::required(path, "path", call, "the mesh file")?, "path")?;
+    let force = args::optional_flag(force, "force")?.unwrap_or(false);
     let read = py
         .detach(|| tetsim::io::read_mesh_with(&path, tetsim::io::ReadOptions { force }))
-        .py()?;
+        .map_err(|e| for_path(e, Origin::File, "path", &path))?;
     let mesh = read.mesh;
     let groups = PyDict::new(py);
     let tet_groups = PyDict::new(py);
@@ -91,14 +105,44 @@ pub fn read_mesh(py: Python<'_>, path: PathBuf, force: bool) -> PyResult<Mesh> {
 /// written as Gmsh physical groups of points in a .msh (read_mesh reads them back; the other
 /// formats have no groups). The file is written atomically (a temp file renamed).
 #[pyfunction]
-#[pyo3(signature = (path, vertices, tets, groups=None))]
+#[pyo3(
+    signature = (path=None, vertices=None, tets=None, groups=None, *extra, **unknown),
+    text_signature = "(path, vertices, tets, groups=None)"
+)]
 pub fn write_mesh(
     py: Python<'_>,
-    path: PathBuf,
-    vertices: &Bound<'_, PyAny>,
-    tets: &Bound<'_, PyAny>,
-    groups: Option<&Bound<'_, PyDict>>,
+    path: Option<&Bound<'_, PyAny>>,
+    vertices: Option<&Bound<'_, PyAny>>,
+    tets: Option<&Bound<'_, PyAny>>,
+    groups: Option<&Bound<'_, PyAny>>,
+    extra: &Bound<'_, PyTuple>,
+    unknown: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<()> {
+    let call = "write_mesh";
+    Signature {
+        call,
+        positional: &["path", "vertices", "tets", "groups"],
+        keyword: &[],
+    }
+    .check(extra, unknown)?;
+    let path = args::path(
+        args::required(path, "path", call, "the file to write")?,
+        "path",
+    )?;
+    let vertices = args::required(vertices, "vertices", call, "a (n, 3) float64 array")?;
+    let tets = args::required(tets, "tets", call, "a (m, 4) int64 array")?;
+    let groups = match groups {
+        Some(g) if !g.is_none() => Some(g.cast::<PyDict>().map_err(|_| {
+            argument(
+                "groups",
+                format!(
+                    "expected a dict of group name -> int64 vertex ids, got {}",
+                    args::describe(g)
+                ),
+            )
+        })?),
+        _ => None,
+    };
     let positions = arrays::vec3s(vertices, "vertices", None)?;
     let n = positions.len();
     if let Some(v) = positions
@@ -137,9 +181,13 @@ pub fn write_mesh(
     let mut mesh = TetMesh::new(positions, tet_list);
     if let Some(groups) = groups {
         for (name, ids) in groups.iter() {
-            let Ok(name) = name.extract::<String>() else {
-                return Err(argument("groups", "group names must be strings"));
-            };
+            if !name.is_instance_of::<pyo3::types::PyString>() {
+                return Err(argument(
+                    "groups",
+                    format!("group names must be strings, got {}", args::describe(&name)),
+                ));
+            }
+            let name = args::text(&name, "groups", "a group name")?;
             let key = format!("groups[{name:?}]");
             let mut vertices = Vec::new();
             for v in arrays::indices(&ids, &key)? {
@@ -155,5 +203,6 @@ pub fn write_mesh(
             });
         }
     }
-    py.detach(|| tetsim::io::write_mesh(&path, &mesh)).py()
+    py.detach(|| tetsim::io::write_mesh(&path, &mesh))
+        .map_err(|e| for_path(e, Origin::File, "path", &path))
 }

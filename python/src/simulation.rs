@@ -1,21 +1,23 @@
 //! `tetsim.Simulation`: step a scene frame by frame, read and set its state, move its fixed
 //! vertices, or run the rest of it into the files `tetsim run` writes.
 
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 use tetsim::boundary::Motion;
 use tetsim::integrator::StepStats;
 use tetsim::math::Vec3;
 use tetsim::output::{Cell, Recorder, step_columns};
 use tetsim::runner::{CheckpointInterval, Ending, Runner};
 
+use tetsim::scene::units::Kind;
+
+use crate::args::{self, Signature};
 use crate::arrays;
-use crate::errors::{LibResult, argument, from_lib};
+use crate::errors::{LibResult, argument, for_path, from_lib};
 use crate::scene::Scene;
 
 /// A running simulation of a scene: its body, boundary conditions, state and solver.
@@ -35,14 +37,27 @@ pub struct Simulation {
     interrupt: Arc<AtomicBool>,
 }
 
-/// A 3-vector argument (any sequence of three floats).
-type Triple = [f64; 3];
-
 #[pymethods]
 impl Simulation {
     /// Build everything the scene describes (reads its mesh), ready to step from frame 0.
     #[new]
-    fn new(py: Python<'_>, scene: &Scene) -> PyResult<Self> {
+    #[pyo3(signature = (scene=None, *extra, **unknown), text_signature = "(scene)")]
+    fn new(
+        py: Python<'_>,
+        scene: Option<&Bound<'_, PyAny>>,
+        extra: &Bound<'_, PyTuple>,
+        unknown: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        signature("Simulation", &["scene"]).check(extra, unknown)?;
+        let what = "a tetsim.Scene (Scene.load(path), Scene.from_dict(values) or Scene.default())";
+        let scene = args::required(scene, "scene", "Simulation", what)?;
+        let scene = scene.cast::<Scene>().map_err(|_| {
+            argument(
+                "scene",
+                format!("expected {what}, got {}", args::describe(scene)),
+            )
+        })?;
+        let scene = scene.get();
         let inner = &scene.inner;
         let sim = py
             .detach(|| tetsim::Simulation::from_scene(inner))
@@ -66,7 +81,14 @@ impl Simulation {
     /// Raises tetsim.Error when the run is finished, or when the frame fails under the scene's
     /// [solver] on_failure (the state is then left as it was before the step). Ctrl-C stops the
     /// frame within a Newton iteration and raises KeyboardInterrupt, the state left as it was.
-    fn step<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (*extra, **unknown), text_signature = "($self)")]
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        extra: &Bound<'py, PyTuple>,
+        unknown: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        signature("Simulation.step", &[]).check(extra, unknown)?;
         let origin = self.origin;
         let flag = Arc::clone(&self.interrupt);
         let sim = self.sim_mut();
@@ -89,13 +111,21 @@ impl Simulation {
     /// Returns the steps dicts of the frames run. Ctrl-C stops the frame being computed within a
     /// Newton iteration (raising KeyboardInterrupt): the files end at the last complete frame,
     /// every one valid, and the manifest says so.
-    #[pyo3(signature = (out_dir=None, deterministic=None))]
+    #[pyo3(
+        signature = (out_dir=None, deterministic=None, *extra, **unknown),
+        text_signature = "($self, out_dir=None, deterministic=None)"
+    )]
     fn run<'py>(
         &mut self,
         py: Python<'py>,
-        out_dir: Option<PathBuf>,
-        deterministic: Option<bool>,
+        out_dir: Option<&Bound<'py, PyAny>>,
+        deterministic: Option<&Bound<'py, PyAny>>,
+        extra: &Bound<'py, PyTuple>,
+        unknown: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        signature("Simulation.run", &["out_dir", "deterministic"]).check(extra, unknown)?;
+        let out_dir = args::optional_path(out_dir, "out_dir")?;
+        let deterministic = args::optional_flag(deterministic, "deterministic")?;
         let mut scene = self.scene.clone();
         scene.output.deterministic = deterministic.unwrap_or(scene.output.deterministic);
         // What this run writes, as the manifest records it: no pictures, no plots.
@@ -106,7 +136,7 @@ impl Simulation {
         let flag = Arc::clone(&self.interrupt);
         let sim = self.sim_mut();
         let mut recorder = Recorder::create(&out, &sim.body, scene.output.obj)
-            .py()?
+            .map_err(|e| for_path(e, origin, "out_dir", &out))?
             .deterministic(scene.output.deterministic);
         recorder.write_frame(&*sim, None).py()?;
         // The same loop as the command line's: checkpoints as the scene says, so that
@@ -148,8 +178,9 @@ impl Simulation {
     }
 
     /// Current positions, m: (n, 3) float64, a copy. Setting it moves every vertex (checked
-    /// like [initial] positions: n finite rows; none inside an obstacle). Constrained components
-    /// are set again by their constraint at the next step.
+    /// like [initial] positions: n finite rows, each coordinate within 1e9 m; none inside an
+    /// obstacle). Constrained components are set again by their constraint at the next step. A
+    /// refused value changes nothing.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let sim = self.lock();
@@ -164,9 +195,9 @@ impl Simulation {
         sim.set_positions(&x).py()
     }
 
-    /// Current velocities, m/s: (n, 3) float64, a copy. Setting it checks n finite rows;
-    /// constrained components are set to zero (their constraint moves them), and a quasistatic
-    /// run accepts only zeros.
+    /// Current velocities, m/s: (n, 3) float64, a copy. Setting it checks n finite rows, each
+    /// component within 1e8 m/s; constrained components are set to zero (their constraint moves
+    /// them), and a quasistatic run accepts only zeros. A refused value changes nothing.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let sim = self.lock();
@@ -245,8 +276,17 @@ impl Simulation {
 
     /// The vertices of [[fixed]] entry `index` (0-based: [[fixed]] #1 is 0), sorted: (k,) int64.
     /// set_fixed_targets takes one target per vertex, in this order.
-    fn fixed_vertices<'py>(&self, py: Python<'py>, index: usize) -> PyResult<Bound<'py, PyAny>> {
+    #[pyo3(signature = (index=None, *extra, **unknown), text_signature = "($self, index)")]
+    fn fixed_vertices<'py>(
+        &self,
+        py: Python<'py>,
+        index: Option<&Bound<'py, PyAny>>,
+        extra: &Bound<'py, PyTuple>,
+        unknown: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        signature("Simulation.fixed_vertices", &["index"]).check(extra, unknown)?;
         let sim = self.lock();
+        let index = fixed_index(&sim, index, "Simulation.fixed_vertices")?;
         arrays::from_indices(py, &sim.fixed_vertices(index).py()?)
     }
 
@@ -254,33 +294,75 @@ impl Simulation {
     /// scene's `motion` and `duration` with their checks: rotate by rotate_degrees about axis
     /// through center, then translate; ramped linearly over duration seconds from the start of
     /// the run (None: the whole run; 0: at once). Takes effect at the next step and replaces
-    /// targets set by set_fixed_targets.
-    #[pyo3(signature = (index, translate=[0.0; 3], rotate_degrees=0.0, axis=[1.0, 0.0, 0.0], center=[0.0; 3], duration=None))]
+    /// targets set by set_fixed_targets. Values are numbers in the key's unit or strings with a
+    /// unit ("5 mm", "0.5 rad", "200 ms"); None is the default. A refused value (not finite,
+    /// beyond its unit's cap, a rotation about a zero axis) changes nothing.
+    #[pyo3(
+        signature = (index=None, translate=None, rotate_degrees=None, axis=None, center=None, duration=None, *extra, **unknown),
+        text_signature = "($self, index, translate=(0, 0, 0), rotate_degrees=0, axis=(1, 0, 0), center=(0, 0, 0), duration=None)"
+    )]
+    #[allow(clippy::too_many_arguments)]
     fn set_fixed_motion(
         &mut self,
-        index: usize,
-        translate: Triple,
-        rotate_degrees: f64,
-        axis: Triple,
-        center: Triple,
-        duration: Option<f64>,
+        index: Option<&Bound<'_, PyAny>>,
+        translate: Option<&Bound<'_, PyAny>>,
+        rotate_degrees: Option<&Bound<'_, PyAny>>,
+        axis: Option<&Bound<'_, PyAny>>,
+        center: Option<&Bound<'_, PyAny>>,
+        duration: Option<&Bound<'_, PyAny>>,
+        extra: &Bound<'_, PyTuple>,
+        unknown: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<()> {
+        signature(
+            "Simulation.set_fixed_motion",
+            &[
+                "index",
+                "translate",
+                "rotate_degrees",
+                "axis",
+                "center",
+                "duration",
+            ],
+        )
+        .check(extra, unknown)?;
         let sim = self.sim_mut();
+        let index = fixed_index(sim, index, "Simulation.set_fixed_motion")?;
+        let vector =
+            |value: Option<&Bound<'_, PyAny>>, key: &str, kind: Kind, default: Vec3| match value {
+                Some(v) if !v.is_none() => args::vec3(v, key, kind).map(Vec3::from),
+                _ => Ok(default),
+            };
         let motion = Motion {
-            translate: Vec3::from(translate),
-            rotate_degrees,
-            axis: Vec3::from(axis),
-            center: Vec3::from(center),
+            translate: vector(translate, "translate", Kind::Length, Vec3::zeros())?,
+            rotate_degrees: args::optional_real(rotate_degrees, "rotate_degrees", Kind::Degrees)?
+                .unwrap_or(0.0),
+            axis: vector(axis, "axis", Kind::Ratio, Vec3::x())?,
+            center: vector(center, "center", Kind::Length, Vec3::zeros())?,
         };
+        let duration = args::optional_real(duration, "duration", Kind::Time)?;
         sim.set_fixed_motion(index, motion, duration).py()
     }
 
     /// Hold the vertices of [[fixed]] entry `index` at `targets` ((k, 3) float64, one finite row
-    /// per vertex of fixed_vertices(index), in its order) from the next step on, in place of the
-    /// entry's motion. Only its constrained components follow.
-    fn set_fixed_targets(&mut self, index: usize, targets: &Bound<'_, PyAny>) -> PyResult<()> {
+    /// per vertex of fixed_vertices(index), in its order, within 1e9 m) from the next step on, in
+    /// place of the entry's motion. Only its constrained components follow.
+    #[pyo3(
+        signature = (index=None, targets=None, *extra, **unknown),
+        text_signature = "($self, index, targets)"
+    )]
+    fn set_fixed_targets(
+        &mut self,
+        index: Option<&Bound<'_, PyAny>>,
+        targets: Option<&Bound<'_, PyAny>>,
+        extra: &Bound<'_, PyTuple>,
+        unknown: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<()> {
+        let call = "Simulation.set_fixed_targets";
+        signature(call, &["index", "targets"]).check(extra, unknown)?;
         let sim = self.sim_mut();
+        let index = fixed_index(sim, index, call)?;
         let k = sim.fixed_vertices(index).py()?.len();
+        let targets = args::required(targets, "targets", call, "a (k, 3) float64 array")?;
         let targets = arrays::vec3s(targets, "targets", Some(k))?;
         sim.set_fixed_targets(index, &targets).py()
     }
@@ -355,6 +437,31 @@ fn interruptible<T: Send>(
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
         (done, signal)
     })
+}
+
+/// A method's parameters, all positional or keyword (for [`Signature::check`]).
+fn signature<'a>(call: &'a str, positional: &'a [&'a str]) -> Signature<'a> {
+    Signature {
+        call,
+        positional,
+        keyword: &[],
+    }
+}
+
+/// The `index` argument of a method about a [[fixed]] entry.
+fn fixed_index(
+    sim: &tetsim::Simulation,
+    index: Option<&Bound<'_, PyAny>>,
+    call: &str,
+) -> PyResult<usize> {
+    let what = "the [[fixed]] entry, numbered from 0";
+    let index = args::required(index, "index", call, what)?;
+    args::index(
+        index,
+        "index",
+        sim.boundary.constraints.len(),
+        "[[fixed]] entry",
+    )
 }
 
 /// One frame's steps.csv columns as a dict.

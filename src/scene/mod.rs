@@ -35,7 +35,7 @@ pub use schema::{
 
 use crate::error::{Error, Result};
 use locate::{Dotted, Locator, Seg, line_column};
-pub(crate) use validate::body_names;
+pub(crate) use validate::{beyond_limit, body_names};
 
 /// The built-in default scene (also `scenes/default.toml`, embedded so they never diverge).
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");

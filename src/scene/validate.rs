@@ -104,6 +104,19 @@ pub(crate) fn derived_damping_problem(zeta: f64, f1: f64, f2: f64) -> Option<Str
     })
 }
 
+/// Why `value` is refused when its magnitude is beyond its unit's [`limit`] (NaN and inf are
+/// left to the callers' own checks). The library's setters between frames (`sim::control`) use
+/// it too, so a value set from code meets the cap and the words of the same key in a scene.
+pub(crate) fn beyond_limit(value: f64, unit: &str) -> Option<String> {
+    let max = limit(unit);
+    (value.is_finite() && value.abs() > max).then(|| {
+        format!(
+            "{value:e} is beyond any physical value: at most {max:.0e} ({unit}) is accepted, as \
+             larger values overflow double precision during the run"
+        )
+    })
+}
+
 /// Check every value of `scene` (parsed from `scene.source`); the first bad one in the file is
 /// the error.
 pub(super) fn validate(scene: &Scene) -> Result<()> {
@@ -167,6 +180,13 @@ fn join<'a>(base: &[Seg<'a>], tail: &[Seg<'a>]) -> Vec<Seg<'a>> {
     base.iter().chain(tail).copied().collect()
 }
 
+/// Whether `v` can be normalised: its length neither zero, nor underflowing to zero
+/// (`[1e-320, 0, 0]`), nor overflowing.
+fn has_direction(v: [f64; 3]) -> bool {
+    let length = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+    length > 0.0 && length.is_finite()
+}
+
 fn vec3(v: [f64; 3]) -> String {
     let c = |x: f64| {
         if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
@@ -197,18 +217,13 @@ impl Validator<'_> {
 
     /// |value| ≤ the unit's [`limit`] (NaN and inf are reported by the callers' own checks).
     fn bounded(&mut self, key: &[Seg], value: f64, unit: &str) -> bool {
-        let max = limit(unit);
-        if value.is_finite() && value.abs() > max {
-            self.fail(
-                key,
-                format!(
-                    "{value:e} is beyond any physical value: at most {max:.0e} ({unit}) is \
-                     accepted, as larger values overflow double precision during the run"
-                ),
-            );
-            return false;
+        match beyond_limit(value, unit) {
+            Some(why) => {
+                self.fail(key, why);
+                false
+            }
+            None => true,
         }
-        true
     }
 
     /// `value` > 0 and finite.
@@ -609,7 +624,7 @@ impl Validator<'_> {
                 );
             }
             self.finite3(&at("axis"), b.axis, "a direction");
-            if b.rotate_degrees != 0.0 && b.axis.iter().all(|&c| c == 0.0) {
+            if b.rotate_degrees != 0.0 && !has_direction(b.axis) {
                 self.fail(&at("axis"), "a rotation needs a nonzero axis");
             }
             self.finite3(&at("translate"), b.translate, "m");
@@ -684,7 +699,7 @@ impl Validator<'_> {
         }
         self.bounded(&at("rotate_degrees"), m.rotate_degrees, "degrees");
         self.finite3(&at("axis"), m.axis, "a direction");
-        if m.rotate_degrees != 0.0 && m.axis.iter().all(|&c| c == 0.0) {
+        if m.rotate_degrees != 0.0 && !has_direction(m.axis) {
             self.fail(
                 &at("axis"),
                 format!(
@@ -724,8 +739,7 @@ impl Validator<'_> {
         }
         if let Some(p) = &o.plane {
             self.finite3(&at(&key!["plane", "point"]), p.point, "m");
-            let norm = p.normal.iter().map(|c| c * c).sum::<f64>().sqrt();
-            if !(norm.is_finite() && norm > 0.0) {
+            if !has_direction(p.normal) {
                 self.fail(
                     &at(&key!["plane", "normal"]),
                     format!(

@@ -1,6 +1,7 @@
 //! What a caller may change between frames, for control and optimisation loops (and the Python
 //! module): positions, velocities, and where the fixed vertices go. Each value is checked the way
-//! the scene file checks the same value, and refused with an [`Error`] naming it.
+//! the scene file checks the same value (finite, within the cap of its unit, a rotation about a
+//! non-zero axis), and refused with an [`Error`] naming it before anything changes.
 //!
 //! Vertex arrays here are in the *input* numbering: the mesh file's, which is also the output
 //! frames'. The simulation may number vertices differently inside, for memory locality
@@ -11,7 +12,22 @@ use crate::boundary::Motion;
 use crate::error::{Error, Result};
 use crate::integrator::Integrator;
 use crate::math::Vec3;
+use crate::scene::beyond_limit;
 use crate::sim::Simulation;
+
+/// The first of `points` (a row number and why) that is not finite or is beyond the cap of
+/// `unit`: `what 3 is not finite`, `what 3: 1e300 is beyond any physical value: …`.
+fn bad_point(points: &[Vec3], unit: &str, what: &str) -> Option<String> {
+    points.iter().enumerate().find_map(|(i, p)| {
+        if !p.iter().all(|c| c.is_finite()) {
+            Some(format!("{what} {i} is not finite"))
+        } else {
+            p.iter()
+                .find_map(|&c| beyond_limit(c, unit))
+                .map(|why| format!("{what} {i}: {why}"))
+        }
+    })
+}
 
 impl Simulation {
     /// Per-vertex values in the simulation's numbering (`state.x`, `body.mesh.positions`, …),
@@ -72,11 +88,8 @@ impl Simulation {
                 ),
             ));
         }
-        if let Some(v) = x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(Error::parameter(
-                "positions",
-                format!("position {v} is not finite"),
-            ));
+        if let Some(why) = bad_point(x, "m", "position") {
+            return Err(Error::parameter("positions", why));
         }
         let x = self.from_input_order(x);
         if let Some(message) = self.contact().and_then(|c| c.intersection(&x)) {
@@ -101,11 +114,8 @@ impl Simulation {
                 ),
             ));
         }
-        if let Some(i) = v.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(Error::parameter(
-                "velocities",
-                format!("velocity {i} is not finite"),
-            ));
+        if let Some(why) = bad_point(v, "m/s", "velocity") {
+            return Err(Error::parameter("velocities", why));
         }
         if self.params.integrator == Integrator::Quasistatic
             && v.iter().any(|p| *p != Vec3::zeros())
@@ -144,32 +154,52 @@ impl Simulation {
         duration: Option<f64>,
     ) -> Result<()> {
         let key = self.constraint(index)?;
+        let text = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
         let finite3 = |name: &str, v: Vec3, unit: &str| {
-            if v.iter().all(|c| c.is_finite()) {
-                Ok(())
+            let why = if v.iter().all(|c| c.is_finite()) {
+                v.iter().find_map(|&c| beyond_limit(c, unit))
             } else {
-                Err(Error::parameter(
-                    format!("{key} motion.{name}"),
-                    format!("must be finite ({unit}), got [{}, {}, {}]", v.x, v.y, v.z),
-                ))
+                Some(format!("must be finite ({unit}), got {}", text(v)))
+            };
+            match why {
+                Some(why) => Err(Error::parameter(format!("{key} motion.{name}"), why)),
+                None => Ok(()),
             }
         };
         finite3("translate", motion.translate, "m")?;
-        if !motion.rotate_degrees.is_finite() {
+        let angle = motion.rotate_degrees;
+        let why = if angle.is_finite() {
+            beyond_limit(angle, "degrees")
+        } else {
+            Some(format!("must be finite (degrees), got {angle}"))
+        };
+        if let Some(why) = why {
             return Err(Error::parameter(
                 format!("{key} motion.rotate_degrees"),
-                format!("must be finite (degrees), got {}", motion.rotate_degrees),
+                why,
             ));
         }
         finite3("axis", motion.axis, "a direction")?;
-        finite3("center", motion.center, "m")?;
-        if let Some(d) = duration
-            && !(d >= 0.0 && d.is_finite())
-        {
+        // A norm that is zero (or underflows to zero) would leave the rotation out silently.
+        if angle != 0.0 && motion.axis.norm() == 0.0 {
             return Err(Error::parameter(
-                format!("{key} duration"),
-                format!("must be zero or positive and finite (s), got {d}"),
+                format!("{key} motion.axis"),
+                format!(
+                    "a rotation of {angle} degrees needs a non-zero axis, got {}",
+                    text(motion.axis)
+                ),
             ));
+        }
+        finite3("center", motion.center, "m")?;
+        if let Some(d) = duration {
+            let why = if d >= 0.0 && d.is_finite() {
+                beyond_limit(d, "s")
+            } else {
+                Some(format!("must be zero or positive and finite (s), got {d}"))
+            };
+            if let Some(why) = why {
+                return Err(Error::parameter(format!("{key} duration"), why));
+            }
         }
         let c = &mut self.boundary.constraints[index];
         c.motion = motion;
@@ -194,14 +224,8 @@ impl Simulation {
                 ),
             ));
         }
-        if let Some(i) = targets
-            .iter()
-            .position(|p| !p.iter().all(|c| c.is_finite()))
-        {
-            return Err(Error::parameter(
-                format!("{key} targets"),
-                format!("target {i} is not finite"),
-            ));
+        if let Some(why) = bad_point(targets, "m", "target") {
+            return Err(Error::parameter(format!("{key} targets"), why));
         }
         let mut inside = vec![Vec3::zeros(); targets.len()];
         for ((_, k), target) in order.iter().zip(targets) {

@@ -406,6 +406,13 @@ fn values_that_arrive_by_files_units_defaults_or_derivation_are_refused_at_their
             "plane.normal",
             "[0, 1e308, 1e308]",
         ),
+        // An axis whose length underflows to zero cannot turn anything.
+        (
+            format!("[mesh]\n{CUBE}\n[[fixed]]\nregion = {{ physical = \"xmin\" }}\nmotion = {{ rotate_degrees = 30, axis = [1e-320, 0, 0] }}\n"),
+            5,
+            "motion.axis",
+            "non-zero axis",
+        ),
         // Rayleigh coefficients derived from a ratio, against the caps of their own keys.
         (
             format!("[mesh]\n{CUBE}\n[solver]\ndamping_ratio = 0.05\ndamping_frequencies = [1e-300, 1e-299]\n"),
