@@ -11,11 +11,21 @@ use crate::elastic::ElasticBody;
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
+mod rigid;
+pub use rigid::{MotionSummary, RigidFit, relative_displacements};
+
 /// What colours the surface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FieldKind {
     /// |x − X|, the displacement magnitude per vertex (m), interpolated smoothly.
     Displacement,
+    /// The displacement left when each body's best-fit rigid motion is taken away, per vertex
+    /// (m): the deformation of a body that falls, slides or rolls (see [`RigidFit`]).
+    RelativeDisplacement,
+    /// |v|, the speed per vertex (m/s).
+    Velocity,
+    /// |f_c|, the contact force per vertex (N); zero without contact.
+    ContactForce,
     /// J = det F per tet (dimensionless): < 1 compressed, > 1 stretched, ≤ 0 inverted.
     J,
     /// Von Mises equivalent of the Cauchy stress per tet (Pa).
@@ -35,8 +45,11 @@ pub enum FieldLocation {
 
 impl FieldKind {
     /// All kinds, in the order the command line lists them.
-    pub const ALL: [FieldKind; 4] = [
+    pub const ALL: [FieldKind; 7] = [
         FieldKind::Displacement,
+        FieldKind::RelativeDisplacement,
+        FieldKind::Velocity,
+        FieldKind::ContactForce,
         FieldKind::J,
         FieldKind::VonMises,
         FieldKind::EnergyDensity,
@@ -45,7 +58,10 @@ impl FieldKind {
     /// Per vertex or per tet.
     pub fn location(self) -> FieldLocation {
         match self {
-            FieldKind::Displacement => FieldLocation::Vertex,
+            FieldKind::Displacement
+            | FieldKind::RelativeDisplacement
+            | FieldKind::Velocity
+            | FieldKind::ContactForce => FieldLocation::Vertex,
             _ => FieldLocation::Cell,
         }
     }
@@ -54,6 +70,9 @@ impl FieldKind {
     pub fn label(self) -> &'static str {
         match self {
             FieldKind::Displacement => "displacement |u|",
+            FieldKind::RelativeDisplacement => "|u| less rigid motion",
+            FieldKind::Velocity => "speed |v|",
+            FieldKind::ContactForce => "contact force",
             FieldKind::J => "volume ratio J",
             FieldKind::VonMises => "von Mises stress",
             FieldKind::EnergyDensity => "energy density Ψ",
@@ -63,7 +82,9 @@ impl FieldKind {
     /// The SI unit of the values ("" for dimensionless).
     pub fn unit(self) -> &'static str {
         match self {
-            FieldKind::Displacement => "m",
+            FieldKind::Displacement | FieldKind::RelativeDisplacement => "m",
+            FieldKind::Velocity => "m/s",
+            FieldKind::ContactForce => "N",
             FieldKind::J => "",
             FieldKind::VonMises => "Pa",
             FieldKind::EnergyDensity => "J/m³",
@@ -74,6 +95,9 @@ impl FieldKind {
     pub fn name(self) -> &'static str {
         match self {
             FieldKind::Displacement => "displacement",
+            FieldKind::RelativeDisplacement => "relative-displacement",
+            FieldKind::Velocity => "velocity",
+            FieldKind::ContactForce => "contact-force",
             FieldKind::J => "J",
             FieldKind::VonMises => "von-mises",
             FieldKind::EnergyDensity => "energy-density",
@@ -115,14 +139,59 @@ pub fn displacement_magnitudes(rest: &[Vec3], x: &[Vec3]) -> Vec<f64> {
     rest.iter().zip(x).map(|(r, p)| (p - r).norm()).collect()
 }
 
-/// The values of `kind` at positions `x`: one per vertex for [`FieldKind::Displacement`]
-/// (against the body's rest positions), one per tet otherwise.
-pub fn field_values(kind: FieldKind, body: &ElasticBody, x: &[Vec3]) -> Vec<f64> {
-    match kind {
+/// The values of `kind` at positions `x`: one per vertex for the displacements (against the
+/// body's rest positions, the relative one with one rigid fit for the whole body), one per tet
+/// for J, Ψ and von Mises. Velocity and contact force are not functions of the positions: they
+/// are read from a frame, and asking for them here is an error.
+pub fn field_values(kind: FieldKind, body: &ElasticBody, x: &[Vec3]) -> Result<Vec<f64>> {
+    Ok(match kind {
         FieldKind::Displacement => displacement_magnitudes(&body.mesh.positions, x),
+        FieldKind::RelativeDisplacement => relative_displacements(&body.mesh.positions, x, &[]),
         FieldKind::J => body.jacobians(x),
         FieldKind::EnergyDensity => body.energy_densities(x),
         FieldKind::VonMises => body.von_mises_stresses(x),
+        FieldKind::Velocity | FieldKind::ContactForce => {
+            return Err(Error::parameter(
+                "render.field",
+                format!("{kind} is not a function of the positions; read it from a frame"),
+            ));
+        }
+    })
+}
+
+/// What colours a run's pictures: a named field, none, or the one [`MotionSummary::choose`]
+/// picks from what the run's bodies did (`"auto"`, the default).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FieldChoice {
+    /// Chosen from the frames.
+    #[default]
+    Auto,
+    /// No colour field: the surface in a neutral colour.
+    None,
+    /// This field.
+    Kind(FieldKind),
+}
+
+impl FromStr for FieldChoice {
+    type Err = Error;
+
+    /// `auto`, `none` or a [`FieldKind`] name (as [`FieldKind::from_str`] reads it).
+    fn from_str(s: &str) -> Result<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "auto" => Ok(FieldChoice::Auto),
+            "none" => Ok(FieldChoice::None),
+            _ => s.parse::<FieldKind>().map(FieldChoice::Kind).map_err(|_| {
+                let names: Vec<&str> = FieldKind::ALL.iter().map(|k| k.name()).collect();
+                Error::parameter(
+                    "render.field",
+                    format!(
+                        "unknown field \"{}\"; expected auto, none, {}",
+                        crate::error::clip(s),
+                        names.join(", ")
+                    ),
+                )
+            }),
+        }
     }
 }
 

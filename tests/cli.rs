@@ -16,6 +16,8 @@ mod contact;
 mod contact_trust;
 #[path = "cli/modes.rs"]
 mod modes;
+#[path = "cli/pictures.rs"]
+mod pictures;
 #[path = "cli/quadratic.rs"]
 mod quadratic;
 #[path = "cli/resume.rs"]

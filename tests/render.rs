@@ -217,7 +217,7 @@ fn renders_are_deterministic() {
     let body = body(&mesh);
     let rm = RenderMesh::new(&mesh);
     let x = bend(&mesh.positions, 0.8);
-    let values = render::field_values(FieldKind::VonMises, &body, &x);
+    let values = render::field_values(FieldKind::VonMises, &body, &x).unwrap();
     let range = render::field_range([values.as_slice()]);
     let params = RenderParams {
         width: 200,
@@ -314,7 +314,7 @@ fn run_writes_preview_and_animation() {
         .collect();
     let fields: Vec<Vec<f64>> = positions
         .iter()
-        .map(|x| render::field_values(FieldKind::J, &body, x))
+        .map(|x| render::field_values(FieldKind::J, &body, x).unwrap())
         .collect();
     let frames: Vec<RunFrame> = positions
         .iter()
@@ -636,7 +636,9 @@ fn gallery_for_people() {
             let camera = render::fit_camera(&bounds, &params);
             let values: Vec<Vec<f64>> = frames
                 .iter()
-                .map(|x| render::field_values(params.field.unwrap_or(FieldKind::J), &body, x))
+                .map(|x| {
+                    render::field_values(params.field.unwrap_or(FieldKind::J), &body, x).unwrap()
+                })
                 .collect();
             let range = render::field_range(values.iter().map(|v| v.as_slice()));
             let view = SceneView {
@@ -907,4 +909,99 @@ fn obstacles_are_drawn_and_a_ground_plane_is_the_floor() {
     let with_wall = draw(&wall, &params);
     assert_ne!(plain.pixels, with_wall.pixels, "the obstacle was not drawn");
     assert!(render::ground_plane(&[Plane::new(Vec3::zeros(), Vec3::x())], Vec3::y()).is_none());
+}
+
+/// With gravity tilted by 30° (a scene set in a slope's frame), the picture's up is against
+/// gravity: gravity points straight down the image, and the ground plane (normal +y), still
+/// the ground, shows tilted across it.
+#[test]
+fn gravity_points_down_the_picture_and_a_slope_shows_tilted() {
+    let gravity = Vec3::new(4.905, -8.496, 0.0);
+    let up = render::up_from_gravity(gravity);
+    assert!((up + gravity.normalize()).norm() < 1e-12);
+    assert_eq!(render::up_from_gravity(Vec3::zeros()), Vec3::y());
+    let params = RenderParams {
+        up,
+        ..RenderParams::default()
+    };
+    let block = Bounds::of(&[Vec3::zeros(), Vec3::new(0.2, 0.1, 0.2)]);
+    let camera = render::fit_camera(&block, &params);
+    let g = gravity.normalize();
+    assert!(camera.right.dot(&g).abs() < 1e-12, "gravity leans sideways");
+    assert!(camera.up.dot(&g) < -0.9, "gravity does not point down");
+    let slope = Plane::new(Vec3::zeros(), Vec3::y());
+    assert_eq!(render::ground_plane(&[slope], up), Some(0));
+    // The slope's normal leans by its 30° across the screen: the ground is drawn tilted.
+    let lean = slope.normal.dot(&camera.right).asin().to_degrees().abs();
+    assert!(lean > 20.0 && lean < 31.0, "the slope leans {lean}°");
+}
+
+/// A body inside a closed box obstacle is hidden by it, unless the obstacle's near half is
+/// cut away (the default), which shows the body.
+#[test]
+fn an_obstacle_around_the_body_is_cut_away() {
+    let mesh = box_mesh(Vec3::zeros(), Vec3::repeat(1.0), [2, 2, 2]);
+    let rm = RenderMesh::new(&mesh);
+    // A closed box around the body, two triangles a face, normals outwards.
+    let (lo, hi) = (Vec3::repeat(-1.0), Vec3::repeat(2.0));
+    let corner = |i: usize| {
+        Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let walls: Vec<[Vec3; 3]> = quads
+        .iter()
+        .flat_map(|q| {
+            [
+                [corner(q[0]), corner(q[1]), corner(q[2])],
+                [corner(q[0]), corner(q[2]), corner(q[3])],
+            ]
+        })
+        .collect();
+    // Unlit and without a field: the body in its one plain colour.
+    let params = RenderParams {
+        field: None,
+        show_floor: false,
+        ..plain_params(160, 120)
+    };
+    let view = SceneView {
+        mesh: &rm,
+        positions: &mesh.positions,
+        field: &[],
+        fixed: &[],
+        time: 0.0,
+        frame: 0,
+    };
+    let mut bounds = Bounds::of(&mesh.positions);
+    walls.iter().for_each(|t| bounds.include(t));
+    let camera = render::fit_camera(&bounds, &params);
+    // The body's one plain colour marks its pixels.
+    let body_pixels = |params: &RenderParams| {
+        let img =
+            render::render_with_obstacles(&view, &walls, &camera, params, (0.0, 1.0)).unwrap();
+        (0..img.height)
+            .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| close(img.pixel(x, y), [142, 170, 204], 6))
+            .count()
+    };
+    let hidden = body_pixels(&RenderParams {
+        cut_obstacles: false,
+        ..params.clone()
+    });
+    assert_eq!(hidden, 0, "the closed box should hide the body");
+    let shown = body_pixels(&params);
+    assert!(
+        shown > 200,
+        "only {shown} pixels of the body show through the cut"
+    );
 }

@@ -7,9 +7,9 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use tetsim::io::vtu::read_pvd;
 use tetsim::math::Vec3;
-use tetsim::render::{self, FieldKind, FrameSource, RenderParams, RunPictureParams};
+use tetsim::render::{self, FieldChoice, FrameSource, RenderParams, RunPictureParams};
 
-use super::saved::SavedRun;
+use super::saved::{SavedRun, render_saved, saved_up};
 
 /// Arguments of `tetsim render`.
 #[derive(Debug, clap::Args)]
@@ -19,8 +19,11 @@ pub struct RenderArgs {
     /// Where to write preview.png and animation.gif (default: the run's folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Colour field: displacement, J, von-mises, energy-density or none.
-    #[arg(long, default_value = "displacement")]
+    /// Colour field: auto (chosen from what the bodies did: displacement for held bodies,
+    /// relative-displacement for free bodies that travel and deform, von-mises for free bodies
+    /// that barely deform), displacement, relative-displacement (displacement less each body's
+    /// best-fit rigid motion), velocity, contact-force, J, von-mises, energy-density or none.
+    #[arg(long, default_value = "auto")]
     pub field: String,
     /// Camera azimuth about +y, degrees.
     #[arg(long, default_value_t = -35.0, allow_hyphen_values = true)]
@@ -61,15 +64,11 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let count = read_pvd(&pvd)?.len();
     anyhow::ensure!(count > 0, "{}: lists no frames", pvd.display());
     let (first, last) = frame_range(args.frames.as_deref(), count)?;
-    let field = match args.field.as_str() {
-        "none" => None,
-        name => Some(name.parse::<FieldKind>()?),
-    };
+    let field = args.field.parse::<FieldChoice>()?;
     let stride = args.stride;
-    let mut run = SavedRun::open(&args.dir, field, |i| {
-        (first..=last).contains(&i) && ((i - first) % stride == 0 || i == last)
-    })?;
-    let (mesh, fixed) = run.mesh()?;
+    let choose = |i: usize| (first..=last).contains(&i) && ((i - first) % stride == 0 || i == last);
+    let up = saved_up(&args.dir);
+    let mut run = SavedRun::open(&args.dir, None, up, choose)?;
     let (t0, t1) = run.time_span();
     let step = if run.len() > 1 {
         (t1 - t0) / (run.len() - 1) as f64
@@ -98,7 +97,7 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             height: args.height,
             azimuth_deg: args.azimuth,
             elevation_deg: args.elevation,
-            field,
+            up,
             wireframe: args.wireframe,
             clip,
             ..Default::default()
@@ -108,10 +107,12 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         gif_delay_cs: render::gif_delay_cs(step),
     };
     params.preview.validate()?;
-    let out = args.out.unwrap_or(args.dir);
+    let out = args.out.clone().unwrap_or_else(|| args.dir.clone());
     std::fs::create_dir_all(&out).map_err(|e| tetsim::Error::io(&out, e))?;
-    let written = render::render_run_from(&mesh, &fixed, &mut run, &params, &out)?;
+    drop(run);
+    let (written, colour) = render_saved(&args.dir, &out, &params, field, choose)?;
     if !quiet {
+        eprintln!("{colour}");
         for path in &written {
             eprintln!("wrote {}", path.display());
         }

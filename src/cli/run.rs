@@ -19,7 +19,7 @@ use tetsim::checkpoint::{Checkpoint, FILE_NAME, RunRecord};
 use tetsim::diagnose::{RunSummary, folded_finding, plausibility_warnings};
 use tetsim::output::{Recorder, clear_previous_run};
 use tetsim::progress::{DisplayMode, FrameReport, RunDisplay};
-use tetsim::render::{self, FieldKind, RenderParams, RunPictureParams};
+use tetsim::render::{self, FieldChoice, RenderParams, RunPictureParams};
 use tetsim::runner::{CheckpointInterval, Ending, Runner};
 use tetsim::{Scene, Simulation, Vec3};
 
@@ -59,11 +59,7 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
     let out = PathBuf::from(&record.out);
     // Everything about the pictures is checked before the first frame: a bad camera must not
     // cost a whole run.
-    let field = match scene.output.field.as_str() {
-        "none" => None,
-        name => Some(name.parse::<FieldKind>()?),
-    };
-    let pictures = picture_params(&scene, field);
+    let pictures = picture_params(&scene);
     if scene.output.pictures {
         check_pictures(&pictures)?;
     }
@@ -382,7 +378,7 @@ fn resumed(
 }
 
 /// The pictures' settings from the scene's [output].
-fn picture_params(scene: &Scene, field: Option<FieldKind>) -> RunPictureParams {
+fn picture_params(scene: &Scene) -> RunPictureParams {
     let o = &scene.output;
     RunPictureParams {
         preview: RenderParams {
@@ -390,13 +386,18 @@ fn picture_params(scene: &Scene, field: Option<FieldKind>) -> RunPictureParams {
             height: o.height,
             azimuth_deg: o.azimuth,
             elevation_deg: o.elevation,
-            field,
+            up: render::up_from_gravity(Vec3::from(scene.gravity)),
             ..Default::default()
         },
         gif_width: o.gif_width,
         gif_height: o.gif_height,
         gif_delay_cs: render::gif_delay_cs(scene.solver.dt * gif_stride(scene) as f64),
     }
+}
+
+/// The scene's `[output] field` (validated with the scene).
+fn field_choice(scene: &Scene) -> anyhow::Result<FieldChoice> {
+    Ok(scene.output.field.parse::<FieldChoice>()?)
 }
 
 /// Refuse picture settings that could only fail after the run.
@@ -430,10 +431,11 @@ fn draw(
     if scene.output.pictures {
         let stride = gif_stride(scene);
         written.extend(
-            super::saved::render_saved(out, out, params, |frame| {
+            super::saved::render_saved(out, out, params, field_choice(scene)?, |frame| {
                 frame.is_multiple_of(stride) || frame == last
             })
-            .context("rendering the pictures")?,
+            .context("rendering the pictures")?
+            .0,
         );
     }
     if scene.output.plots && last > 0 {

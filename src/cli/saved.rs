@@ -12,7 +12,7 @@ use tetsim::io::{FieldData, read_vtu_frame};
 use tetsim::math::Vec3;
 use tetsim::mesh::TetMesh;
 use tetsim::render::{
-    self, FieldKind, FrameSource, ObstacleView, OwnedFrame, RenderMesh, RenderParams,
+    self, FieldChoice, FieldKind, FrameSource, MotionSummary, ObstacleView, OwnedFrame, RenderMesh,
     RunPictureParams,
 };
 
@@ -23,6 +23,8 @@ pub struct SavedRun {
     frames: Vec<(usize, f64, String)>,
     obstacle_files: Vec<(f64, String)>,
     field: Option<FieldKind>,
+    /// The pictures' up direction (which plane obstacle is the ground depends on it).
+    up: Vec3,
     /// The obstacles file read last, and what it holds (moving obstacles have one per frame).
     obstacles: Option<(String, ObstacleView)>,
 }
@@ -32,6 +34,7 @@ impl SavedRun {
     pub fn open(
         dir: &Path,
         field: Option<FieldKind>,
+        up: Vec3,
         choose: impl Fn(usize) -> bool,
     ) -> anyhow::Result<Self> {
         let pvd = dir.join("frames.pvd");
@@ -54,8 +57,29 @@ impl SavedRun {
             frames,
             obstacle_files,
             field,
+            up,
             obstacles: None,
         })
+    }
+
+    /// Colour by `field` from now on.
+    pub fn set_field(&mut self, field: Option<FieldKind>) {
+        self.field = field;
+    }
+
+    /// The field that shows what the bodies did ([`MotionSummary::choose`]), from a pass over
+    /// the chosen frames, and the reason in a few words.
+    pub fn choose_field(&self) -> anyhow::Result<(FieldKind, &'static str)> {
+        let mut summary = MotionSummary::default();
+        for (_, _, file) in &self.frames {
+            let path = self.dir.join(file);
+            let frame = read_vtu_frame(&path)?;
+            let rest = rest_positions(&path, &frame)?;
+            let fixed = flags(&frame.point_data, "fixed");
+            summary.add_frame(&rest, &frame.points, &bodies(&frame.point_data), &fixed);
+        }
+        log::debug!("pictures: {summary:?}");
+        Ok(summary.choose())
     }
 
     /// The rest mesh (points − displacement, and the tets) and fixed vertices of the first
@@ -76,12 +100,26 @@ impl SavedRun {
         let (index, time, file) = self.frames[i].clone();
         let path = self.dir.join(&file);
         let frame = read_vtu_frame(&path)?;
-        let field = match self.field {
-            None => Vec::new(),
-            Some(FieldKind::Displacement) => vectors(&path, &frame.point_data, "displacement")?
+        let magnitudes = |name| -> anyhow::Result<Vec<f64>> {
+            Ok(vectors(&path, &frame.point_data, name)?
                 .iter()
                 .map(|d| d.norm())
-                .collect(),
+                .collect())
+        };
+        let field = match self.field {
+            None => Vec::new(),
+            Some(FieldKind::Displacement) => magnitudes("displacement")?,
+            Some(FieldKind::Velocity) => magnitudes("velocity")?,
+            // A run without contact writes no contact force: zero everywhere.
+            Some(FieldKind::ContactForce) => match frame.point_field("contact_force") {
+                Some(_) => magnitudes("contact_force")?,
+                None => vec![0.0; frame.points.len()],
+            },
+            Some(FieldKind::RelativeDisplacement) => render::relative_displacements(
+                &rest_positions(&path, &frame)?,
+                &frame.points,
+                &bodies(&frame.point_data),
+            ),
             Some(kind) => scalars(&path, &frame.cell_data, cell_array(kind))?.to_vec(),
         };
         // The obstacles file of this frame: the last one written at or before its time.
@@ -89,7 +127,7 @@ impl SavedRun {
             None => (Vec::new(), None),
             Some((_, name)) => {
                 if self.obstacles.as_ref().is_none_or(|o| &o.0 != name) {
-                    let view = read_obstacles(&self.dir.join(name))?;
+                    let view = read_obstacles(&self.dir.join(name), self.up)?;
                     self.obstacles = Some((name.clone(), view));
                 }
                 let view = &self.obstacles.as_ref().expect("read above").1;
@@ -119,22 +157,58 @@ impl FrameSource for SavedRun {
 }
 
 /// Draw preview.png and animation.gif of the run in `dir` (the frames `choose` accepts) into
-/// `out`, one frame in memory at a time.
+/// `out`, one frame in memory at a time, coloured by `field` (`Auto`: the field
+/// [`SavedRun::choose_field`] picks, named in the caption with its reason). Returns the paths
+/// written and the colour used, in words ("colour: von-mises (auto: …)").
 pub fn render_saved(
     dir: &Path,
     out: &Path,
     params: &RunPictureParams,
+    field: FieldChoice,
     choose: impl Fn(usize) -> bool,
-) -> anyhow::Result<Vec<PathBuf>> {
-    let mut run = SavedRun::open(dir, params.preview.field, choose)?;
+) -> anyhow::Result<(Vec<PathBuf>, String)> {
+    let mut run = SavedRun::open(dir, None, params.preview.up, choose)?;
+    let mut params = params.clone();
+    let mut reason = String::new();
+    params.preview.field = match field {
+        FieldChoice::None => None,
+        FieldChoice::Kind(kind) => Some(kind),
+        FieldChoice::Auto => {
+            let (kind, why) = run.choose_field()?;
+            reason = format!(" (auto: {why})");
+            if !params.preview.title.is_empty() {
+                params.preview.title.push_str("   ");
+            }
+            params
+                .preview
+                .title
+                .push_str(&format!("auto colour: {why}"));
+            Some(kind)
+        }
+    };
+    run.set_field(params.preview.field);
     let (mesh, fixed) = run.mesh()?;
-    Ok(render::render_run_from(
-        &mesh, &fixed, &mut run, params, out,
-    )?)
+    let written = render::render_run_from(&mesh, &fixed, &mut run, &params, out)?;
+    let name = params.preview.field.map_or("none", |k| k.name());
+    Ok((written, format!("colour: {name}{reason}")))
+}
+
+/// The up direction of a saved run's pictures: against the gravity its manifest.json records
+/// (`parameters.gravity`), +y when there is none or it cannot be read.
+pub fn saved_up(dir: &Path) -> Vec3 {
+    let gravity = std::fs::read(dir.join("manifest.json"))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
+        .and_then(|m| {
+            let g = m.get("parameters")?.get("gravity")?.as_array()?.clone();
+            let c: Vec<f64> = g.iter().filter_map(|v| v.as_f64()).collect();
+            (c.len() == 3).then(|| Vec3::new(c[0], c[1], c[2]))
+        });
+    gravity.map_or_else(Vec3::y, render::up_from_gravity)
 }
 
 /// An `obstacles_NNNN.vtu` read back and split into the ground and the other obstacles.
-fn read_obstacles(path: &Path) -> anyhow::Result<ObstacleView> {
+fn read_obstacles(path: &Path, up: Vec3) -> anyhow::Result<ObstacleView> {
     let surface = read_surface_vtu(path)?;
     let per_triangle = |name: &str| match surface.cell_field(name) {
         Some(FieldData::Scalar(v)) if v.len() == surface.triangles.len() => Some(v.clone()),
@@ -151,7 +225,7 @@ fn read_obstacles(path: &Path) -> anyhow::Result<ObstacleView> {
         &surface.triangles,
         &obstacle,
         &is_plane,
-        RenderParams::default().up,
+        up,
     ))
 }
 
@@ -161,27 +235,45 @@ fn cell_array(kind: FieldKind) -> &'static str {
         FieldKind::J => "J",
         FieldKind::VonMises => "von_mises",
         FieldKind::EnergyDensity => "strain_energy_density",
-        FieldKind::Displacement => "displacement",
+        _ => "displacement",
     }
 }
 
 /// Rest positions (points − displacement) and tets of a frame, and its fixed vertices.
 fn rest_mesh(path: &Path, frame: &tetsim::io::Frame) -> anyhow::Result<(RenderMesh, Vec<bool>)> {
-    let displacement = vectors(path, &frame.point_data, "displacement")?;
-    let rest: Vec<Vec3> = frame
-        .points
-        .iter()
-        .zip(displacement)
-        .map(|(x, d)| x - d)
-        .collect();
-    let fixed = match frame.point_data.iter().find(|f| f.0 == "fixed") {
-        Some((_, FieldData::Scalar(v))) => v.iter().map(|&c| c > 0.0).collect(),
-        _ => vec![false; rest.len()],
-    };
+    let rest = rest_positions(path, frame)?;
+    let fixed = flags(&frame.point_data, "fixed");
     let mut mesh = TetMesh::new(rest, frame.tets.clone());
     // 10-node cells: their faces drawn as four sub-triangles each, through the mid-edge nodes.
     mesh.edge_nodes = frame.edge_nodes.clone();
     Ok((RenderMesh::new(&mesh), fixed))
+}
+
+/// A frame's rest positions: points − displacement.
+fn rest_positions(path: &Path, frame: &tetsim::io::Frame) -> anyhow::Result<Vec<Vec3>> {
+    let displacement = vectors(path, &frame.point_data, "displacement")?;
+    Ok(frame
+        .points
+        .iter()
+        .zip(displacement)
+        .map(|(x, d)| x - d)
+        .collect())
+}
+
+/// A 0/1 point array as flags (all false when the frame has none).
+fn flags(data: &[(String, FieldData)], name: &str) -> Vec<bool> {
+    match data.iter().find(|f| f.0 == name) {
+        Some((_, FieldData::Scalar(v))) => v.iter().map(|&c| c > 0.0).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The body of every point (empty for a one-body run, which writes no `body` array).
+fn bodies(data: &[(String, FieldData)]) -> Vec<usize> {
+    match data.iter().find(|f| f.0 == "body") {
+        Some((_, FieldData::Scalar(v))) => v.iter().map(|&b| b.max(0.0) as usize).collect(),
+        _ => Vec::new(),
+    }
 }
 
 fn vectors<'a>(

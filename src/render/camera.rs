@@ -1,7 +1,7 @@
 //! The perspective camera and its fit to the bounding box of a whole run.
 
-use super::RenderParams;
 use super::raster::Layout;
+use super::{Plane, RenderParams};
 use crate::math::Vec3;
 
 /// An axis-aligned bounding box; the union over every frame of a run fixes the camera and the
@@ -156,6 +156,36 @@ impl Camera {
     }
 }
 
+/// `params` with the camera on the side a tilted ground faces (a slope seen from downhill, its
+/// face towards the camera, rather than from uphill, where it falls away out of sight): the
+/// azimuth mirrored when the camera would look at the slope's back. Unchanged for a ground
+/// within 5° of level with the up direction.
+pub(crate) fn facing_ground(params: &RenderParams, ground: &Plane) -> RenderParams {
+    let (Some(up), Some(n)) = (
+        params.up.try_normalize(1e-300),
+        ground.normal.try_normalize(1e-300),
+    ) else {
+        return params.clone();
+    };
+    let level = n - up * n.dot(&up);
+    if level.norm() < 5f64.to_radians().sin() {
+        return params.clone();
+    }
+    let (h1, h2) = Camera::floor_axes(&up);
+    let az = params.azimuth_deg.to_radians();
+    let back = h1 * az.cos() + h2 * az.sin();
+    if back.dot(&level) >= 0.0 {
+        return params.clone();
+    }
+    // Mirror about the vertical plane through the slope's fall line.
+    let fall = level.normalize();
+    let mirrored = back - fall * (2.0 * back.dot(&fall));
+    RenderParams {
+        azimuth_deg: mirrored.dot(&h2).atan2(mirrored.dot(&h1)).to_degrees(),
+        ..params.clone()
+    }
+}
+
 /// A camera that looks at `bounds` (the union over every frame of the run) from the direction
 /// given by `params.azimuth_deg` / `params.elevation_deg`, as close as the field of view allows
 /// while every corner of the box stays inside the picture's 3D viewport (the area left by the
@@ -262,6 +292,32 @@ mod tests {
         assert!(cam.eye.z > 1.0);
         // Symmetric box seen head-on: centred.
         assert!((cam.eye.x - 0.5).abs() < 1e-9 && (cam.eye.y - 0.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_slope_is_seen_from_the_side_it_faces() {
+        let up = Vec3::new(-0.5, 0.75f64.sqrt(), 0.0);
+        let params = RenderParams {
+            up,
+            ..RenderParams::default()
+        };
+        let slope = Plane::new(Vec3::zeros(), Vec3::y());
+        let turned = facing_ground(&params, &slope);
+        // The default (−35°) looks from uphill; mirrored to +35°, downhill.
+        assert!(
+            (turned.azimuth_deg - 35.0).abs() < 1e-9,
+            "{}",
+            turned.azimuth_deg
+        );
+        let cam = fit_camera(&Bounds::of(&[Vec3::zeros(), Vec3::repeat(1.0)]), &turned);
+        assert!(
+            -cam.forward.dot(&slope.normal) > 0.5,
+            "the slope's face looks away"
+        );
+        // Already facing it, or a level ground: unchanged.
+        assert_eq!(facing_ground(&turned, &slope), turned);
+        let level = RenderParams::default();
+        assert_eq!(facing_ground(&level, &slope), level);
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! What gets drawn: the boundary triangles (with the tet behind each), their normals, and the
 //! cut-away by a plane that exposes the cut faces of the tets it crosses.
 
-use super::{CREASE_ANGLE_DEG, FieldLocation, RenderParams, SceneView, Shading};
+use super::{CREASE_ANGLE_DEG, FieldLocation, Plane, RenderParams, SceneView, Shading};
 use crate::math::Vec3;
 use crate::mesh::TetMesh;
 
@@ -140,13 +140,17 @@ pub(crate) struct Tri {
 }
 
 /// Obstacle triangles (world coordinates) to draw beside the body: flat-shaded, in the obstacle
-/// colour, outlined at their creases like the body.
-pub(crate) fn obstacle_triangles(obstacles: &[[Vec3; 3]]) -> Vec<Tri> {
-    obstacles
-        .iter()
-        .filter_map(|p| {
-            let n = (p[1] - p[0]).cross(&(p[2] - p[0])).try_normalize(1e-300)?;
-            Some(Tri {
+/// colour, outlined at their creases like the body. With `cut` (a point and a normal towards the
+/// removed side), the part beyond the plane is cut away and the cut's rim outlined.
+pub(crate) fn obstacle_triangles(obstacles: &[[Vec3; 3]], cut: Option<&Plane>) -> Vec<Tri> {
+    let mut tris = Vec::with_capacity(obstacles.len());
+    for p in obstacles {
+        let Some(n) = (p[1] - p[0]).cross(&(p[2] - p[0])).try_normalize(1e-300) else {
+            continue;
+        };
+        let d = cut.map_or([-1.0; 3], |c| p.map(|q| (q - c.point).dot(&c.normal)));
+        if d.iter().all(|&d| d <= 0.0) {
+            tris.push(Tri {
                 p: *p,
                 n: [n; 3],
                 value: [f64::NAN; 3],
@@ -154,9 +158,22 @@ pub(crate) fn obstacle_triangles(obstacles: &[[Vec3; 3]]) -> Vec<Tri> {
                 features: 0,
                 cap: false,
                 obstacle: true,
-            })
-        })
-        .collect()
+            });
+        } else if d.iter().any(|&d| d <= 0.0) {
+            let corners = p.map(|q| Corner {
+                p: q,
+                n,
+                value: f64::NAN,
+                feature_after: false,
+            });
+            let first = tris.len();
+            push_fan(&mut tris, &clip_polygon(&corners, &d), false);
+            for t in &mut tris[first..] {
+                t.obstacle = true;
+            }
+        }
+    }
+    tris
 }
 
 /// A polygon corner during clipping.

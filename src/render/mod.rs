@@ -47,7 +47,8 @@ pub use colormap::viridis;
 // The fields live outside the renderer (scene validation needs them without pictures);
 // re-exported so `render::FieldKind` keeps working.
 pub use crate::field::{
-    FieldKind, FieldLocation, displacement_magnitudes, field_range, field_values,
+    FieldChoice, FieldKind, FieldLocation, MotionSummary, displacement_magnitudes, field_range,
+    field_values, relative_displacements,
 };
 pub use geometry::RenderMesh;
 pub use image::Image;
@@ -105,7 +106,9 @@ pub struct RenderParams {
     /// smooth edges, 4 is marginally better and 16/9 slower.
     pub supersample: u32,
     /// Camera azimuth in degrees about the up axis; 0 looks at the model from +z (x to the
-    /// right, for up = +y), negative values swing the camera towards −x. Default −35.
+    /// right, for up = +y), negative values swing the camera towards −x. Default −35. A run's
+    /// pictures mirror it across a tilted ground's fall line when it would look at the slope
+    /// from uphill, where the slope falls away out of sight.
     pub azimuth_deg: f64,
     /// Camera elevation above the floor plane in degrees (90 looks straight down). Default 22.
     pub elevation_deg: f64,
@@ -113,7 +116,7 @@ pub struct RenderParams {
     /// drawing), larger exaggerates depth. Default 30.
     pub fov_deg: f64,
     /// The world's up direction (the floor is perpendicular to it). Default +y, the opposite
-    /// of the default gravity.
+    /// of the default gravity; [`up_from_gravity`] gives a scene's.
     pub up: Vec3,
     /// What colours the surface; `None` paints it a neutral colour and drops the colour bar.
     pub field: Option<FieldKind>,
@@ -133,7 +136,10 @@ pub struct RenderParams {
     /// A ground plane (a plane obstacle): the floor is drawn there, in its orientation, instead
     /// of under the bounding box; `normal` points to the free side. Default none.
     pub ground: Option<Plane>,
-    /// Mark fixed (Dirichlet) vertices with red dots. Default true.
+    /// Cut away the near half of obstacles that surround the body (a bowl, a box around it),
+    /// upright through the body's centre, so that the body shows. Default true.
+    pub cut_obstacles: bool,
+    /// Mark fixed (Dirichlet) vertices with red dots (thinned where they crowd). Default true.
     pub show_fixed: bool,
     /// A caption line at the top: the title, frame number and time. Default true.
     pub show_caption: bool,
@@ -158,6 +164,7 @@ impl Default for RenderParams {
             clip: None,
             show_floor: true,
             ground: None,
+            cut_obstacles: true,
             show_fixed: true,
             show_caption: true,
             title: String::new(),
@@ -307,6 +314,15 @@ pub fn render_with_obstacles(
         params,
         sanitize_range(field_range),
     ))
+}
+
+/// The up direction of a scene's pictures: against gravity, so that things fall down the
+/// picture and a ground tilted against gravity (a slope) shows tilted; +y without gravity.
+pub fn up_from_gravity(gravity: Vec3) -> Vec3 {
+    match (-gravity).try_normalize(1e-300) {
+        Some(up) if up.iter().all(|c| c.is_finite()) => up,
+        _ => Vec3::y(),
+    }
 }
 
 /// Which of `planes` (point, normal towards the free side) is the ground: the one whose normal

@@ -2,7 +2,31 @@
 //! orientation), every other obstacle a shaded surface.
 
 use super::Plane;
+use super::camera::{Bounds, Camera};
 use crate::math::Vec3;
+
+/// The plane that cuts away the near half of the obstacles when they surround the body (its
+/// centre lies inside their bounding box, as a ball in a bowl does), so that the body shows:
+/// upright (perpendicular to the floor), through the body's centre, facing the camera. The
+/// normal points to the removed side, towards the camera. None when nothing surrounds the body.
+pub(crate) fn cut_plane(body: &[Vec3], obstacles: &[[Vec3; 3]], camera: &Camera) -> Option<Plane> {
+    if obstacles.is_empty() {
+        return None;
+    }
+    let centre = Bounds::of(body).center();
+    let mut around = Bounds::empty();
+    for t in obstacles {
+        around.include(t);
+    }
+    let inside = (0..3).all(|i| around.min[i] <= centre[i] && centre[i] <= around.max[i]);
+    if !inside || !centre.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let back = -camera.forward;
+    let level = back - camera.world_up * back.dot(&camera.world_up);
+    let normal = level.try_normalize(1e-6).unwrap_or(back);
+    Some(Plane::new(centre, normal))
+}
 
 /// Obstacle triangles of one frame, split for drawing.
 #[derive(Clone, Debug, Default, PartialEq)]

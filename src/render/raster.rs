@@ -512,7 +512,12 @@ fn render_frame_in_bands(
     let (sw, sh) = (w * ss, h * ss);
     let proj = Projection::new(camera, &layout.viewport, ss as f64);
     let mut tris = build_triangles(view, params);
-    tris.extend(obstacle_triangles(obstacles));
+    let cut = if params.cut_obstacles {
+        super::obstacles::cut_plane(view.positions, obstacles, camera)
+    } else {
+        None
+    };
+    tris.extend(obstacle_triangles(obstacles, cut.as_ref()));
     let setups: Vec<Setup> = tris
         .iter()
         .enumerate()

@@ -1,8 +1,9 @@
-//! The pictures of a whole run: `preview.png` (the last frame) and `animation.gif` (every
-//! frame given), with one camera and one colour range for all of them.
+//! The pictures of a whole run: `preview.png` (the last frame, framed and coloured on its own)
+//! and `animation.gif` (every frame given, with one camera and one colour range for all).
 
 use std::path::{Path, PathBuf};
 
+use super::camera::facing_ground;
 use super::{
     Bounds, FieldLocation, GifStream, Histogram, Plane, RenderMesh, RenderParams, SceneView,
     field_range, fit_camera, render_with_obstacles,
@@ -148,9 +149,10 @@ impl FrameSource for Slices<'_, '_> {
 }
 
 /// Render `frames` (in order; the caller picks the stride and should include the last frame)
-/// with one camera fitted to all of them and one colour range over all of them; write
-/// `preview.png` (the last frame, at the preview size) and `animation.gif` (every frame, at
-/// the GIF size) into `out_dir`. Returns the paths written.
+/// and write `preview.png` (the last frame at the preview size, with a camera and a colour
+/// range of its own) and `animation.gif` (every frame at the GIF size, with one camera fitted to
+/// all of them and one colour range over all of them, so that they line up) into `out_dir`.
+/// Returns the paths written.
 pub fn render_run(
     mesh: &RenderMesh,
     fixed: &[bool],
@@ -211,7 +213,7 @@ pub fn render_run_from(
         Some(_) => (0.0, 0.0),
         None => (0.0, 1.0),
     };
-    let draw = |f: &RunFrame<'_>, p: &RenderParams, camera| {
+    let draw_in = |f: &RunFrame<'_>, p: &RenderParams, camera, range| {
         let view = SceneView {
             mesh,
             positions: f.positions,
@@ -231,16 +233,43 @@ pub fn render_run_from(
             None => render_with_obstacles(&view, f.obstacles, camera, p, range),
         }
     };
+    let draw = |f: &RunFrame<'_>, p: &RenderParams, camera| draw_in(f, p, camera, range);
 
-    let preview_camera = fit_camera(&bounds, &params.preview);
+    // The preview is one picture: fitted to its own frame (the body, and the obstacles beside
+    // it) and coloured over its own values, so that what varies in it spans the colour bar.
+    // A margin of a fifth of its size around it keeps the floor and the obstacles in view.
+    let mut last_bounds = Bounds::of(&last.positions);
+    for t in &last.obstacles {
+        last_bounds.include(t);
+    }
+    if !last_bounds.is_empty() {
+        let margin = Vec3::repeat(0.2 * last_bounds.diagonal());
+        last_bounds.include(&[last_bounds.min - margin, last_bounds.max + margin]);
+    }
+    // A tilted ground (a slope) is seen from the side it faces.
+    let preview_params = match last.ground {
+        Some(g) => facing_ground(&params.preview, &g),
+        None => params.preview.clone(),
+    };
+    let preview_camera = fit_camera(&last_bounds, &preview_params);
+    let last_range = match params.preview.field {
+        Some(_) if last.field.iter().any(|v| v.is_finite()) => field_range([last.field.as_slice()]),
+        _ => range,
+    };
     let preview = out_dir.join("preview.png");
-    draw(&last.as_run_frame(), &params.preview, &preview_camera)?.write_png(&preview)?;
+    draw_in(
+        &last.as_run_frame(),
+        &preview_params,
+        &preview_camera,
+        last_range,
+    )?
+    .write_png(&preview)?;
     drop(last);
 
     let gif_params = RenderParams {
         width: params.gif_width,
         height: params.gif_height,
-        ..params.preview.clone()
+        ..preview_params
     };
     let gif_camera = fit_camera(&bounds, &gif_params);
     let mut histogram = Histogram::new(count, params.gif_width, params.gif_height)?;

@@ -729,8 +729,9 @@ pub struct OutputSpec {
     pub pictures: bool,
     /// Plot steps.csv into `steps_*.png` after the run. Default true.
     pub plots: bool,
-    /// Colour field of the pictures: "displacement" (default), "J", "von-mises",
-    /// "energy-density" or "none".
+    /// Colour field of the pictures: "auto" (default: chosen from what the bodies did, see
+    /// [`crate::field::MotionSummary::choose`]), "displacement", "relative-displacement",
+    /// "velocity", "contact-force", "J", "von-mises", "energy-density" or "none".
     pub field: String,
     /// Size of `preview.png` in pixels. Default 800 × 600.
     pub width: u32,
@@ -770,7 +771,7 @@ impl Default for OutputSpec {
             obj: true,
             pictures: true,
             plots: true,
-            field: "displacement".into(),
+            field: "auto".into(),
             width: 800,
             height: 600,
             gif_width: 480,

@@ -120,19 +120,32 @@ impl MarkerCandidates {
             .filter(|&i| visible[i])
             .map(|i| (self.at[i][0] / ss, self.at[i][1] / ss))
             .collect();
-        // Marker size: a little over a third of the typical distance between neighbouring
-        // markers on screen, so that dense clamps (or clamps seen edge-on) do not become a red
-        // smear.
-        let max_r = 0.3 * font_px as f64;
+        // Marker size: about a third of the typical distance between neighbouring markers on
+        // screen, so that dense clamps (or clamps seen edge-on) do not become a red smear; and
+        // where they crowd, one marker per patch of a few radii, so that a held region reads
+        // as dotted rather than painted over.
+        let max_r = 0.22 * font_px as f64;
         let r = match typical_spacing(&centres) {
-            Some(spacing) => (0.38 * spacing).clamp(1.5, max_r),
+            Some(spacing) => (0.3 * spacing).clamp(1.5, max_r),
             None => max_r,
         };
-        for &c in &centres {
+        let kept = thin(&centres, (5.0 * r).max(1.5 * font_px as f64));
+        for &c in &kept {
             text::draw_disc(img, c, r, MARKER_FILL, MARKER_EDGE);
         }
         centres.len()
     }
+}
+
+/// The points, thinned so that at most one is kept in every `gap` × `gap` square of a grid
+/// (the first in order: deterministic).
+fn thin(points: &[(f64, f64)], gap: f64) -> Vec<(f64, f64)> {
+    let mut taken = std::collections::BTreeSet::new();
+    points
+        .iter()
+        .copied()
+        .filter(|p| taken.insert(((p.0 / gap).floor() as i64, (p.1 / gap).floor() as i64)))
+        .collect()
 }
 
 /// The median distance from a point to its nearest neighbour (None for fewer than 2 points).

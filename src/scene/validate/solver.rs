@@ -124,9 +124,7 @@ impl Validator<'_> {
 
     pub(super) fn output(&mut self, o: &OutputSpec) {
         let at = |k: &'static str| key!["output", k];
-        if o.field != "none"
-            && let Err(e) = o.field.parse::<crate::field::FieldKind>()
-        {
+        if let Err(e) = o.field.parse::<crate::field::FieldChoice>() {
             let message = match e {
                 Error::Parameter { message, .. } => message,
                 other => other.to_string(),
