@@ -66,7 +66,8 @@ pub fn run(args: RenderArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let (first, last) = frame_range(args.frames.as_deref(), count)?;
     let field = args.field.parse::<FieldChoice>()?;
     let stride = args.stride;
-    let choose = |i: usize| (first..=last).contains(&i) && ((i - first) % stride == 0 || i == last);
+    let choose =
+        |i: usize| (first..=last).contains(&i) && ((i - first).is_multiple_of(stride) || i == last);
     let up = saved_up(&args.dir);
     let mut run = SavedRun::open(&args.dir, None, up, choose)?;
     let (t0, t1) = run.time_span();

@@ -214,10 +214,11 @@ mod tests {
 
     #[test]
     fn each_body_is_fitted_on_its_own() {
-        let rest: Vec<Vec3> = cube().into_iter().chain(cube().into_iter()).collect();
+        let rest: Vec<Vec3> = cube().into_iter().chain(cube()).collect();
         let body: Vec<usize> = (0..54).map(|v| v / 27).collect();
         // Body 0 translates, body 1 rotates a quarter turn: both rigid.
-        let r = Rotation3::from_axis_angle(&Vec3::z_axis(), 1.5707963).into_inner();
+        let r =
+            Rotation3::from_axis_angle(&Vec3::z_axis(), std::f64::consts::FRAC_PI_2).into_inner();
         let x: Vec<Vec3> = rest
             .iter()
             .enumerate()
