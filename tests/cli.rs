@@ -18,6 +18,8 @@ mod contact_trust;
 mod modes;
 #[path = "cli/quadratic.rs"]
 mod quadratic;
+#[path = "cli/render_surface.rs"]
+mod render_surface;
 #[path = "cli/resume.rs"]
 mod resume;
 #[path = "cli/trust.rs"]
