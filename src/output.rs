@@ -25,6 +25,7 @@ use crate::sim::Simulation;
 
 mod fields;
 mod frame;
+pub mod render;
 mod timings;
 
 pub use frame::{FrameData, FrameTaker};
@@ -88,6 +89,8 @@ pub struct Recorder {
     problems: Vec<String>,
     /// The manifest's `info` object (see [`crate::info`]), made at the first manifest.
     info: Option<serde_json::Value>,
+    /// Set at the first frame: None without render surfaces.
+    render: Option<render::RenderOutput>,
 }
 
 /// What the recorder keeps when contact is on.
@@ -123,6 +126,7 @@ impl Recorder {
             named: None,
             problems: Vec::new(),
             info: None,
+            render: None,
         })
     }
 
@@ -152,6 +156,24 @@ impl Recorder {
         }
     }
 
+    /// Write `render.glb`, the animation of the render surfaces over every frame written (also
+    /// those before a resume), when the run has render surfaces. Call it after the last frame.
+    pub fn write_animation(&mut self) -> Result<()> {
+        let Some(out) = &self.render else {
+            return Ok(());
+        };
+        let frames: Vec<(usize, f64)> = self
+            .frames
+            .iter()
+            .filter(|f| f.files.iter().any(|(n, _)| n.starts_with("render_")))
+            .map(|f| (f.frame, f.time))
+            .collect();
+        if let Some(path) = out.write_animation(&self.dir, &frames)? {
+            self.note(path);
+        }
+        Ok(())
+    }
+
     /// Take up a run in `dir` from its checkpoint's bookkeeping, `sim` being restored to the
     /// checkpoint's frame: steps.csv and timings.csv are cut back to that frame (a frame written
     /// after the checkpoint is written again), frames.pvd and obstacles.pvd rewritten, and the
@@ -163,7 +185,7 @@ impl Recorder {
         saved: &crate::checkpoint::RecorderState,
     ) -> Result<Self> {
         let mut r = Recorder::create(dir, &sim.body, write_obj)?;
-        r.start(sim);
+        r.start(sim)?;
         let steps = dir.join("steps.csv");
         let text = std::fs::read(&steps).map_err(|e| Error::io(&steps, e))?;
         let (len, crc) = saved.steps_csv;
@@ -288,7 +310,7 @@ impl Recorder {
     /// `stats` is None for frame 0 (the initial state).
     pub fn write_frame(&mut self, sim: &Simulation, stats: Option<&StepStats>) -> Result<()> {
         if self.csv.is_empty() {
-            self.start(sim);
+            self.start(sim)?;
         }
         self.write(FrameTaker::new(sim).take(sim, stats))
     }
@@ -343,6 +365,12 @@ impl Recorder {
             let path = self.dir.join(&obj);
             write_obj(&path, &data.x, &self.surface)?;
             files.push((obj, crate::manifest::sha256_file(&path)?));
+            self.note(path);
+        }
+        if let Some(out) = &self.render {
+            let path = out.write_frame(&self.dir, frame, &data.render)?;
+            let name = render::render_file(frame);
+            files.push((name, crate::manifest::sha256_file(&path)?));
             self.note(path);
         }
         self.write_obstacles(frame, data.time, &data.obstacle_ramps, &mut files)?;
@@ -436,6 +464,7 @@ impl Recorder {
             "obstacles.pvd",
             "probes.csv",
             "reactions.csv",
+            render::ANIMATION_FILE,
         ] {
             let path = self.dir.join(name);
             if path.exists() {
@@ -476,7 +505,8 @@ impl Recorder {
 
     /// At the first frame: the steps.csv header (and probes.csv's and reactions.csv's when the
     /// run has them), and with contact the obstacles at rest.
-    fn start(&mut self, sim: &Simulation) {
+    fn start(&mut self, sim: &Simulation) -> Result<()> {
+        self.render = render::RenderOutput::new(sim, &self.dir)?;
         self.csv = format!("{}\n", steps_header(false));
         let monitors = sim.monitors();
         if !monitors.probes.is_empty() {
@@ -501,6 +531,7 @@ impl Recorder {
                 setup: setup.clone(),
             });
         }
+        Ok(())
     }
 
     /// `obstacles_NNNN.vtu` (every frame when an obstacle moves, else only the first) and
@@ -557,6 +588,7 @@ pub const RUN_FILES: &[&str] = &[
     "probes.csv",
     "reactions.csv",
     "manifest.json",
+    render::ANIMATION_FILE,
     crate::checkpoint::FILE_NAME,
     "preview.png",
     "animation.gif",
@@ -569,14 +601,16 @@ pub const RUN_FILES: &[&str] = &[
 ];
 
 /// The frame number of a numbered output file (`frame_0012.vtu` → 12; also `.pvtu`,
-/// `surface_NNNN.obj` and `obstacles_NNNN.vtu`), None for any other name.
+/// `surface_NNNN.obj`, `render_NNNN.obj` and `obstacles_NNNN.vtu`), None for any other name.
 pub fn frame_number(name: &str) -> Option<usize> {
     let (stem, ext) = name.rsplit_once('.')?;
     let digits = match ext {
         "vtu" | "pvtu" => stem
             .strip_prefix("frame_")
             .or_else(|| stem.strip_prefix("obstacles_"))?,
-        "obj" => stem.strip_prefix("surface_")?,
+        "obj" => stem
+            .strip_prefix("surface_")
+            .or_else(|| stem.strip_prefix("render_"))?,
         _ => return None,
     };
     // A piece of a split frame (frame_0012_3.vtu) belongs to frame 12.

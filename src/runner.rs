@@ -198,8 +198,10 @@ impl Runner {
         })
     }
 
-    /// Write manifest.json with how the run ended.
+    /// Write the render surfaces' animation (`render.glb`, over every frame written, those
+    /// before a resume included) and manifest.json with how the run ended.
     pub fn finish(&mut self, scene: &Scene, sim: &Simulation, ending: &Ending) -> Result<()> {
+        self.recorder.write_animation()?;
         self.recorder.write_manifest(scene, sim, &ending.status())
     }
 }

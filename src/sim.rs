@@ -21,7 +21,10 @@ mod control;
 mod energy;
 mod monitoring;
 mod recovery;
+mod render;
 mod validity;
+
+pub use render::RenderBody;
 
 use std::time::Instant;
 
@@ -93,6 +96,8 @@ pub struct Simulation {
     /// Whether the last attempt at a frame ended with a moving obstacle that could not get
     /// through the body.
     blocked: bool,
+    /// Detailed surfaces embedded in the bodies (output only).
+    render: Vec<render::RenderBody>,
 }
 
 impl Simulation {
@@ -167,6 +172,7 @@ impl Simulation {
             inverted_at_end: usize::MAX,
             tangled_total: 0,
             blocked: false,
+            render: Vec::new(),
         })
     }
 

@@ -20,6 +20,8 @@ mod modes;
 mod pictures;
 #[path = "cli/quadratic.rs"]
 mod quadratic;
+#[path = "cli/render_surface.rs"]
+mod render_surface;
 #[path = "cli/resume.rs"]
 mod resume;
 #[path = "cli/trust.rs"]

@@ -211,6 +211,10 @@ pub fn run(args: RunArgs, quiet: bool, verbose: u8) -> anyhow::Result<ExitCode> 
         _ => None,
     };
     let recorder = &mut runner.recorder;
+    // The render surfaces' animation over every frame on disk (a resumed run's too).
+    recorder
+        .write_animation()
+        .context("writing the render surfaces' animation")?;
     // The manifest first: whatever happens to the pictures, the run's record is written.
     recorder.write_manifest(&scene, &sim, &status)?;
 

@@ -16,10 +16,12 @@
 //! Every reader error names the file and the line (the byte offset inside binary data) or the
 //! element or node by its id in the file. No input bytes make a reader panic (fuzzed in tests).
 
+pub mod gltf;
 pub mod gmsh;
 pub mod medit;
 pub mod obj;
 pub mod pvd;
+pub mod render_obj;
 pub mod stl;
 pub mod surface_vtu;
 pub mod tetgen;

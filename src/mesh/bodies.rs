@@ -146,15 +146,25 @@ impl Placement {
         if *self == Placement::default() {
             return;
         }
+        let centroid = self.pivot(&mesh.positions);
         for p in &mut mesh.positions {
-            *p *= self.scale;
+            *p = self.map(*p, centroid);
         }
-        let n = mesh.positions.len().max(1) as f64;
-        let centroid = mesh.positions.iter().sum::<Vec3>() / n;
-        let rotation = rotation(self.axis, self.rotate_degrees);
-        for p in &mut mesh.positions {
-            *p = centroid + rotation * (*p - centroid) + self.translate;
+    }
+
+    /// The centroid the rotation turns about: the mean of `positions` after scaling.
+    pub fn pivot(&self, positions: &[Vec3]) -> Vec3 {
+        let n = positions.len().max(1) as f64;
+        positions.iter().map(|p| p * self.scale).sum::<Vec3>() / n
+    }
+
+    /// Where the placement takes the point `p`, rotating about `pivot` (see [`Placement::pivot`]):
+    /// so that a surface embedded in a mesh moves with it.
+    pub fn map(&self, p: Vec3, pivot: Vec3) -> Vec3 {
+        if *self == Placement::default() {
+            return p;
         }
+        pivot + rotation(self.axis, self.rotate_degrees) * (p * self.scale - pivot) + self.translate
     }
 }
 

@@ -6,6 +6,7 @@
 
 pub mod bodies;
 pub mod doctor;
+pub mod embed;
 pub mod generate;
 pub mod ordering;
 pub mod overlap;

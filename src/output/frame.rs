@@ -43,6 +43,8 @@ pub struct FrameData {
     /// Each probe's displacement (m), each named constraint's reaction (N): empty without them.
     pub(super) probes: Vec<Vec3>,
     pub(super) reactions: Vec<Vec3>,
+    /// Each render surface's positions (empty without render surfaces).
+    pub(super) render: Vec<Vec<Vec3>>,
 }
 
 /// Takes frames from one simulation; holds what stays the same from frame to frame.
@@ -181,6 +183,9 @@ impl FrameTaker {
             contact_costs: sim.contact().map(|c| c.costs()),
             probes: sim.probe_displacements(),
             reactions: sim.reaction_forces(),
+            render: (0..sim.render_bodies().len())
+                .map(|i| sim.render_positions(i))
+                .collect(),
         }
     }
 }

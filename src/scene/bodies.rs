@@ -13,6 +13,9 @@ use super::locate::{Seg, key};
 use super::schema::{MaterialSpec, MeshSpec, Scene};
 use super::validate::body_names;
 
+/// Each body's placement and the pivot it rotated about.
+pub(super) type Placements = Vec<(Placement, Vec3)>;
+
 /// Which body each vertex and tet of the (possibly renumbered) simulation mesh belongs to.
 pub(crate) struct Membership {
     names: Vec<String>,
@@ -92,8 +95,9 @@ impl Membership {
 
 impl Scene {
     /// Every body's mesh, placed and merged (body 0, the `[mesh]`, first), with where each
-    /// body's vertices and tets went. One body: the `[mesh]` as it was read.
-    pub(super) fn build_bodies(&self) -> Result<(TetMesh, Bodies)> {
+    /// body's vertices and tets went and each body's placement with its pivot (for what is
+    /// placed with the body: its render surface). One body: the `[mesh]` as it was read.
+    pub(super) fn build_bodies(&self) -> Result<(TetMesh, Bodies, Placements)> {
         let names = body_names(self);
         let first = self.build_mesh()?;
         // Elements are checked per body, in the body's own numbering, and blamed on what made
@@ -116,21 +120,23 @@ impl Scene {
                 first
             };
             let bodies = Bodies::single(names[0].clone(), &first);
-            return Ok((first, bodies));
+            return Ok((first, bodies, vec![(Placement::default(), Vec3::zeros())]));
         }
         let mut parts = vec![(names[0].clone(), first)];
+        let mut placements = vec![(Placement::default(), Vec3::zeros())];
         for (i, spec) in self.body.iter().enumerate() {
             let at = key!["body", i, "mesh"];
             let mut mesh = self.build_mesh_spec(&spec.mesh, &at)?;
             mesh.validate()
                 .map_err(|problem| blame(&spec.mesh, &at, problem))?;
-            Placement {
+            let placement = Placement {
                 scale: spec.scale,
                 rotate_degrees: spec.rotate_degrees,
                 axis: Vec3::from(spec.axis),
                 translate: Vec3::from(spec.translate),
-            }
-            .apply(&mut mesh);
+            };
+            placements.push((placement, placement.pivot(&mesh.positions)));
+            placement.apply(&mut mesh);
             if let Err(problem) = mesh.validate() {
                 let key = if spec.scale != 1.0 {
                     "scale"
@@ -164,7 +170,8 @@ impl Scene {
                 *mesh = elevate(mesh);
             }
         }
-        Ok(Bodies::merge(parts))
+        let (mesh, bodies) = Bodies::merge(parts);
+        Ok((mesh, bodies, placements))
     }
 
     /// The `[material]` of body `b` (0: the top-level one).

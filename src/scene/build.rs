@@ -520,7 +520,7 @@ fn region(spec: &RegionSpec, renumbering: Option<&Renumbering>) -> Region {
 impl Simulation {
     /// Everything a scene describes, ready to step.
     pub fn from_scene(scene: &Scene) -> Result<Simulation> {
-        let (file_mesh, bodies) = scene.build_bodies()?;
+        let (file_mesh, bodies, placements) = scene.build_bodies()?;
         let generated =
             scene.mesh.generator.is_some() && scene.body.iter().all(|b| b.mesh.generator.is_some());
         let order = match scene.mesh.reorder {
@@ -581,6 +581,12 @@ impl Simulation {
             scene.build_boundary_of(&body.mesh, renumbering.as_ref(), Some(&membership))?;
         let initial = scene.initial_state_of(&body, renumbering.as_ref(), &bodies)?;
         let monitors = scene.build_monitors(&body, &membership)?;
+        let render = scene.build_render(
+            &body,
+            &bodies.names,
+            |b| membership.tets_of(b as u32),
+            &placements,
+        )?;
         let contact = scene.contact_setup()?.map(|setup| ContactSetup {
             body_names: bodies.names.clone(),
             vertex_body: membership.vertex_body.clone(),
@@ -596,7 +602,8 @@ impl Simulation {
             .with_renumbering(renumbering)
             .with_bodies(bodies)
             .with_damping(damping)
-            .with_monitors(monitors);
+            .with_monitors(monitors)
+            .with_render(render);
         match contact {
             Some(setup) => sim.with_contact(setup).map_err(|e| match &e {
                 Error::Parameter { name, message } => match name

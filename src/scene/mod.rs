@@ -19,6 +19,7 @@ mod bodies;
 mod build;
 pub(crate) mod locate;
 mod monitors;
+mod render;
 mod schema;
 pub mod units;
 mod validate;

@@ -126,6 +126,11 @@ pub struct BodySpec {
     /// Initial velocity of its free vertices, m/s.
     #[serde(default, deserialize_with = "units::three::<_, units::Velocity>")]
     pub velocity: [f64; 3],
+    /// A detailed surface (.obj) embedded in the body's tets and written deformed every frame
+    /// (`render_NNNN.obj`, `render.glb`); relative to the scene, in the mesh's unit, placed
+    /// with the body. Same as `mesh = { render = ... }`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<PathBuf>,
 }
 
 /// `[mesh]`: a file or a generator (exactly one).
@@ -159,6 +164,12 @@ pub struct MeshSpec {
     /// Outputs stay SI. A generator's `min` and `max` take units in their own values instead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,
+    /// A detailed surface (.obj) embedded in the body's tets: each vertex bound to the rest tet
+    /// that holds it, moved with it, written every frame (`render_NNNN.obj`) and into one
+    /// animation (`render.glb`), and drawn in the pictures instead of the tets' boundary.
+    /// Relative to the scene; in the mesh file's unit; placed with the body.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<PathBuf>,
 }
 
 impl MeshSpec {

@@ -279,6 +279,9 @@ impl Validator<'_> {
 
     /// A `[mesh]` or a `[[body]]`'s `mesh` (at `at`).
     fn mesh(&mut self, at: &[Seg], mesh: &MeshSpec) {
+        if let Some(render) = &mesh.render {
+            self.render_file(&join(at, &key!["render"]), render);
+        }
         if !matches!(mesh.element_order(), 1 | 2) {
             self.fail(
                 &join(at, &key!["order"]),
@@ -337,6 +340,23 @@ impl Validator<'_> {
                      their own values (min = [\"0 mm\", \"0 mm\", \"0 mm\"])",
                 );
             }
+        }
+    }
+
+    /// A render surface must be a Wavefront OBJ (the format that keeps texture coordinates,
+    /// groups and materials); whether it reads is found when the scene is built.
+    fn render_file(&mut self, key: &[Seg], path: &std::path::Path) {
+        let obj = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+        if !obj {
+            self.fail(
+                key,
+                format!(
+                    "\"{}\": a render surface is a Wavefront .obj file",
+                    crate::error::clip(&path.display().to_string())
+                ),
+            );
         }
     }
 
@@ -604,6 +624,15 @@ impl Validator<'_> {
                 );
             }
             self.mesh(&at("mesh"), &b.mesh);
+            if let Some(render) = &b.render {
+                if b.mesh.render.is_some() {
+                    self.fail(
+                        &at("render"),
+                        "give the render surface once: here or as the mesh's render key",
+                    );
+                }
+                self.render_file(&at("render"), render);
+            }
             if b.mesh.element_order() != 1 {
                 self.fail(
                     &join(&base, &key!["mesh", "order"]),
