@@ -20,6 +20,8 @@ mod modes;
 mod quadratic;
 #[path = "cli/resume.rs"]
 mod resume;
+#[path = "cli/tetrahedralize.rs"]
+mod tetrahedralize;
 #[path = "cli/trust.rs"]
 mod trust;
 
