@@ -9,7 +9,7 @@ a wrong type, a missing or unknown argument alike, its key naming the argument.
 """
 
 from os import PathLike
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -273,6 +273,19 @@ def write_mesh(
     tets (m, 4) int64 indices into vertices; groups: name -> vertex ids (int64), written as
     Gmsh physical groups of points in a .msh (the other formats have no groups). Written
     atomically (a temp file renamed)."""
+
+def tetrahedralize(
+    vertices: _F64,
+    faces: _I64,
+    size: float,
+    min_closure: float = 0.8,
+) -> Tuple[_F64, _I64]:
+    """Fill the solid a closed triangle surface bounds with tets (isosurface stuffing on a BCC
+    lattice of spacing size, m). vertices (n, 3) float64, faces (k, 3) int64; returns
+    (vertices (p, 3) float64, tets (m, 4) int64), tets positively oriented. Small holes and
+    self-intersections are tolerated (generalized winding numbers). Raises Error for a surface
+    too open (closure below min_closure), a size with no lattice point inside, or one whose
+    estimated mesh would not fit in memory."""
 
 class Material:
     """A constitutive model: energy density Ψ(F) (J/m³), first Piola-Kirchhoff stress

@@ -24,6 +24,8 @@ mod quadratic;
 mod render_surface;
 #[path = "cli/resume.rs"]
 mod resume;
+#[path = "cli/tetrahedralize.rs"]
+mod tetrahedralize;
 #[path = "cli/trust.rs"]
 mod trust;
 

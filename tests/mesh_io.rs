@@ -6,6 +6,10 @@
 mod common;
 #[path = "mesh_io/quadratic.rs"]
 mod quadratic;
+#[path = "mesh_io/stuffing.rs"]
+mod stuffing;
+#[path = "mesh_io/surfaces.rs"]
+mod surfaces;
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};

@@ -121,6 +121,15 @@ pub fn tets(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[i64; 4]>> {
         .collect())
 }
 
+/// A (m, 3) int64 array (triangles).
+pub fn triangles(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[i64; 3]>> {
+    let array = checked::<i64>(obj, name, "int64", &[None, Some(3)], "m")?;
+    Ok(data(&array)?
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect())
+}
+
 /// A flat vector as a numpy array of `shape` (C order).
 fn shaped<'py, T: numpy::Element>(
     py: Python<'py>,

@@ -35,6 +35,7 @@ fn tetsim_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<material::Material>()?;
     m.add_function(wrap_pyfunction!(mesh::read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(mesh::write_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::tetrahedralize, m)?)?;
     m.add(
         "STEPS_COLUMNS",
         tetsim::output::STEPS_HEADER.split(',').collect::<Vec<_>>(),

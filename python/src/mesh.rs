@@ -1,4 +1,5 @@
-//! `tetsim.read_mesh` and `tetsim.write_mesh`: tet meshes in the formats tetsim reads and writes.
+//! `tetsim.read_mesh` and `tetsim.write_mesh`: tet meshes in the formats tetsim reads and writes;
+//! `tetsim.tetrahedralize`: a tet mesh of the solid a triangle surface bounds.
 
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -205,4 +206,57 @@ pub fn write_mesh(
     }
     py.detach(|| tetsim::io::write_mesh(&path, &mesh))
         .map_err(|e| for_path(e, Origin::File, "path", &path))
+}
+
+/// Fill the solid a closed triangle surface bounds with tets (isosurface stuffing on a BCC
+/// lattice of spacing `size`, m): vertices (n, 3) float64, faces (k, 3) int64 → (vertices (p, 3)
+/// float64, tets (m, 4) int64), tets positively oriented. Small holes and self-intersections are
+/// tolerated (generalized winding numbers); a surface too open, a size with no lattice point
+/// inside, or one that would not fit in memory raises tetsim.Error.
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, size, min_closure=0.8))]
+pub fn tetrahedralize<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    size: f64,
+    min_closure: f64,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    use tetsim::mesh::stuff::{self, StuffError, StuffParams};
+    let positions = arrays::vec3s(vertices, "vertices", None)?;
+    let n = positions.len();
+    let mut triangles = Vec::new();
+    for (f, face) in arrays::triangles(faces, "faces")?.into_iter().enumerate() {
+        let mut out = [0usize; 3];
+        for (slot, v) in out.iter_mut().zip(face) {
+            *slot = usize::try_from(v).ok().filter(|&v| v < n).ok_or_else(|| {
+                argument(
+                    "faces",
+                    format!("face {f} refers to vertex {v}, which does not exist (there are {n} vertices)"),
+                )
+            })?;
+        }
+        triangles.push(out);
+    }
+    let surface = tetsim::io::obj::TriangleSurface {
+        positions,
+        faces: triangles,
+    };
+    let params = StuffParams {
+        size,
+        min_closure,
+        ..Default::default()
+    };
+    let (mesh, _) = py
+        .detach(|| stuff::tetrahedralize(&surface, &params))
+        .map_err(|e| match e {
+            StuffError::NonPositiveSize { .. }
+            | StuffError::EmptyInside { .. }
+            | StuffError::TooLarge { .. } => argument("size", e),
+            _ => argument("faces", e),
+        })?;
+    Ok((
+        arrays::from_vec3s(py, &mesh.positions)?,
+        arrays::from_tets(py, &mesh.tets)?,
+    ))
 }

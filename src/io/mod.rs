@@ -20,6 +20,7 @@ pub mod gltf;
 pub mod gmsh;
 pub mod medit;
 pub mod obj;
+pub mod ply;
 pub mod pvd;
 pub mod render_obj;
 pub mod stl;
@@ -167,6 +168,25 @@ impl Format {
                 ));
             }
         })
+    }
+}
+
+/// Read a triangle surface by extension: `.obj`, `.stl` or `.ply` (case-insensitive).
+pub fn read_surface(path: &Path) -> Result<obj::TriangleSurface> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    match ext.as_str() {
+        "obj" => obj::read_obj(path),
+        "stl" => stl::read_stl(path),
+        "ply" => ply::read_ply(path),
+        _ => Err(Error::parse(
+            path,
+            None,
+            format!("unknown surface format `.{ext}`: expected .obj, .stl or .ply"),
+        )),
     }
 }
 

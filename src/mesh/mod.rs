@@ -11,6 +11,7 @@ pub mod generate;
 pub mod ordering;
 pub mod overlap;
 pub mod quadratic;
+pub mod stuff;
 
 use crate::error::MeshProblem;
 use crate::math::{Mat3, Vec3};

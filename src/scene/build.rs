@@ -114,11 +114,55 @@ impl Scene {
             (None, Some(Generator::Box { min, max, cells })) => {
                 Ok(box_mesh(Vec3::from(*min), Vec3::from(*max), *cells))
             }
-            (None, None) => Err(self.error_at(
-                &[at, &key!["file"]].concat(),
-                "give a mesh file or a generator",
-            )),
+            (None, None) => match (&spec.surface, spec.size) {
+                (Some(surface), Some(size)) => self.fill_surface(spec, at, surface, size),
+                _ => Err(self.error_at(
+                    &[at, &key!["file"]].concat(),
+                    "give a mesh file or a generator (or a surface to fill with tets)",
+                )),
+            },
         }
+    }
+
+    /// Read `surface` (in the spec's `unit`) and fill it with tets at lattice spacing `size`.
+    fn fill_surface(
+        &self,
+        spec: &MeshSpec,
+        at: &[Seg],
+        surface: &std::path::Path,
+        size: f64,
+    ) -> Result<TetMesh> {
+        use crate::mesh::stuff::{StuffError, StuffParams, tetrahedralize};
+        let path = self.resolve(surface);
+        let surface_key = [at, &key!["surface"]].concat();
+        let mut triangles =
+            crate::io::read_surface(&path).map_err(|e| self.unreadable(&surface_key, e))?;
+        if let Some(unit) = self.length_unit(spec, at)? {
+            for p in &mut triangles.positions {
+                *p = p.map(|c| unit.to_si(c));
+            }
+        }
+        let (mesh, info) =
+            tetrahedralize(&triangles, &StuffParams::with_size(size)).map_err(|e| {
+                let key = match e {
+                    StuffError::NonPositiveSize { .. }
+                    | StuffError::EmptyInside { .. }
+                    | StuffError::TooLarge { .. } => [at, &key!["size"]].concat(),
+                    _ => surface_key.clone(),
+                };
+                self.error_at(&key, format!("{}: {e}", path.display()))
+            })?;
+        log::info!(
+            "{}: filled with {} tets, {} vertices at size {size} m (closure {:.3})",
+            path.display(),
+            mesh.tets.len(),
+            mesh.positions.len(),
+            info.closure
+        );
+        if let Some(why) = crate::resources::memory_shortfall(mesh.tets.len() as f64) {
+            return Err(self.error_at(&[at, &key!["size"]].concat(), why));
+        }
+        Ok(mesh)
     }
 
     /// The unit of a mesh's `unit` key (None: metres already).

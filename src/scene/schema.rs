@@ -133,7 +133,7 @@ pub struct BodySpec {
     pub render: Option<PathBuf>,
 }
 
-/// `[mesh]`: a file or a generator (exactly one).
+/// `[mesh]`: a file, a generator or a surface to fill with tets (exactly one).
 #[derive(Clone, Debug, Default, Deserialize, PartialEq, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSpec {
@@ -141,6 +141,18 @@ pub struct MeshSpec {
     pub file: Option<PathBuf>,
     /// Built-in generator.
     pub generator: Option<Generator>,
+    /// A closed triangle surface (.obj, .stl, .ply; relative to the scene) filled with tets at
+    /// load by isosurface stuffing, at lattice spacing `size`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<PathBuf>,
+    /// Lattice spacing for `surface`, m (or with a unit: "5 mm"): the tets' edge length inside.
+    /// Required with `surface`.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "units::optional::<_, units::Length>"
+    )]
+    pub size: Option<f64>,
     /// Load a mesh the doctor finds bad (degenerate or duplicate tets, …) anyway. Default false;
     /// `tetsim run --force` sets it.
     #[serde(default)]

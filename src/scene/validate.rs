@@ -291,12 +291,42 @@ impl Validator<'_> {
                 ),
             );
         }
+        match (&mesh.file, &mesh.surface) {
+            (Some(_), Some(_)) => self.fail(
+                &join(at, &key!["surface"]),
+                "give either file or surface, not both",
+            ),
+            (None, Some(_)) if mesh.generator.is_some() => self.fail(
+                &join(at, &key!["surface"]),
+                "give either generator or surface, not both",
+            ),
+            _ => {}
+        }
+        match (&mesh.surface, mesh.size) {
+            (Some(_), None) => self.fail(
+                &join(at, &key!["surface"]),
+                "a surface needs `size`, the lattice spacing of its tets (e.g. size = \"5 mm\")",
+            ),
+            (None, Some(_)) => self.fail(
+                &join(at, &key!["size"]),
+                "size is the lattice spacing for a `surface`; a mesh file or generator takes none",
+            ),
+            (Some(_), Some(h)) if !(h.is_finite() && h > 0.0) => self.fail(
+                &join(at, &key!["size"]),
+                format!("must be a positive length, got {h}"),
+            ),
+            _ => {}
+        }
         match (&mesh.file, &mesh.generator) {
             (Some(_), Some(_)) => self.fail(
                 &join(at, &key!["generator"]),
                 "give either file or generator, not both",
             ),
-            (None, None) => self.fail(&join(at, &key!["file"]), "give a mesh file or a generator"),
+            (None, None) if mesh.surface.is_some() => {}
+            (None, None) => self.fail(
+                &join(at, &key!["file"]),
+                "give a mesh file or a generator (or a surface to fill with tets)",
+            ),
             (None, Some(Generator::Box { min, max, cells })) => {
                 let base = join(at, &key!["generator", "box"]);
                 self.finite3(&join(&base, &key!["min"]), *min, "m");
