@@ -542,13 +542,7 @@ pub fn read(path: &Path) -> Result<Parsed> {
                 (ty, nodes)
             })
             .collect();
-        let tet_cells: Vec<usize> = parsed
-            .mesh
-            .tet_ids
-            .iter()
-            .flatten()
-            .map(|&c| c as usize)
-            .collect();
+        let tet_cells = tet_cells(&parsed);
         parsed.mesh.groups = super::vtu_groups::read_groups(
             &g.flags,
             &g.point_data,
@@ -560,17 +554,17 @@ pub fn read(path: &Path) -> Result<Parsed> {
     Ok(parsed)
 }
 
+/// The file cell each tet was read from (tets are the cells of tet types, in file order).
+fn tet_cells(parsed: &Parsed) -> Vec<usize> {
+    let ids = parsed.mesh.tet_ids.iter().flatten();
+    ids.map(|&c| c as usize).collect()
+}
+
 /// Read a `.vtu` frame back: points, tets and data arrays (e.g. tetsim's `frame_NNNN.vtu`).
 pub fn read_vtu_frame(path: &Path) -> Result<Frame> {
     let g = parse_grid(path)?;
     let parsed = tets_from_cells(path, g.points, &g.offsets, &g.connectivity, &g.types)?;
-    let cells: Vec<usize> = parsed
-        .mesh
-        .tet_ids
-        .iter()
-        .flatten()
-        .map(|&c| c as usize)
-        .collect();
+    let cells = tet_cells(&parsed);
     let cell_data = g
         .cell_data
         .into_iter()

@@ -16,7 +16,12 @@ use super::schema::{
 };
 use crate::error::{Error, Result};
 
+mod limits;
+mod obstacles;
 mod solver;
+
+pub(crate) use limits::{beyond_length_cap, beyond_limit, derived_damping_problem};
+use limits::{has_direction, limit};
 
 /// How many `[[volume]]` entries a mesh can hold (materials are stored per tet in a byte).
 const MAX_VOLUMES: usize = u8::MAX as usize;
@@ -44,78 +49,6 @@ const MIN_DT: f64 = 1e-12;
 
 /// `max_step_cuts` beyond this would ask for more than 2²⁰ substeps per frame.
 const MAX_STEP_CUTS: usize = 20;
-
-/// The largest magnitude a value of this unit may have: far beyond any physical scene, and low
-/// enough that products of a few such values (ρ·v²·V, E·ℓ², m·x/h²) stay far from f64's 1.8e308,
-/// so that a typo like `1e308` is refused at its key instead of running to inf or NaN.
-fn limit(unit: &str) -> f64 {
-    match unit {
-        "m" => 1e9,
-        "m/s" => 1e8,
-        "m/s²" => 1e9,
-        "Pa" => 1e15,
-        "N" => 1e20,
-        "kg/m³" => 1e8,
-        "s" | "s, or a load factor" => 1e12,
-        "1/s" => 1e9,
-        "degrees" => 1e9,
-        "a Coulomb coefficient" => 1e3,
-        _ => 1e15,
-    }
-}
-
-/// The first point (index, position) beyond the length cap (1e9 m, as for every length in a
-/// scene): a mesh file or a positions file in `unit = "Tm"`, or a body scaled far beyond any
-/// scene, is refused before its numbers overflow during the run.
-pub(crate) fn beyond_length_cap(points: &[crate::math::Vec3]) -> Option<String> {
-    let max = limit("m");
-    let (i, p) = points
-        .iter()
-        .enumerate()
-        .find(|(_, p)| !p.iter().all(|c| c.abs() <= max))?;
-    Some(format!(
-        "vertex {} is at [{:e}, {:e}, {:e}] m, beyond the {max:.0e} m any length in a scene \
-         may have (is the unit or scale right?)",
-        i + 1,
-        p.x,
-        p.y,
-        p.z
-    ))
-}
-
-/// Rayleigh coefficients derived from a damping ratio, against the caps of the keys they fill
-/// (`rayleigh_mass`, 1/s; `rayleigh_stiffness`, s): a ratio at absurd frequencies must not
-/// give what those keys would refuse. The problem in words, if any.
-pub(crate) fn derived_damping_problem(zeta: f64, f1: f64, f2: f64) -> Option<String> {
-    let (alpha, gamma) = crate::modes::rayleigh_from_ratio(zeta, f1, f2);
-    [
-        ("rayleigh_mass", alpha, "1/s"),
-        ("rayleigh_stiffness", gamma, "s"),
-    ]
-    .into_iter()
-    .find(|(_, value, unit)| value.is_nan() || value.abs() > limit(unit))
-    .map(|(name, value, unit)| {
-        format!(
-            "damping ratio {zeta} at [{f1:e}, {f2:e}] Hz gives {name} = {value:.3e} {unit}, \
-                 beyond the {:.0e} {unit} that key accepts: choose frequencies the body can \
-                 vibrate at",
-            limit(unit)
-        )
-    })
-}
-
-/// Why `value` is refused when its magnitude is beyond its unit's [`limit`] (NaN and inf are
-/// left to the callers' own checks). The library's setters between frames (`sim::control`) use
-/// it too, so a value set from code meets the cap and the words of the same key in a scene.
-pub(crate) fn beyond_limit(value: f64, unit: &str) -> Option<String> {
-    let max = limit(unit);
-    (value.is_finite() && value.abs() > max).then(|| {
-        format!(
-            "{value:e} is beyond any physical value: at most {max:.0e} ({unit}) is accepted, as \
-             larger values overflow double precision during the run"
-        )
-    })
-}
 
 /// Check every value of `scene` (parsed from `scene.source`); the first bad one in the file is
 /// the error.
@@ -178,13 +111,6 @@ pub(crate) fn body_names(scene: &Scene) -> Vec<String> {
 
 fn join<'a>(base: &[Seg<'a>], tail: &[Seg<'a>]) -> Vec<Seg<'a>> {
     base.iter().chain(tail).copied().collect()
-}
-
-/// Whether `v` can be normalised: its length neither zero, nor underflowing to zero
-/// (`[1e-320, 0, 0]`), nor overflowing.
-fn has_direction(v: [f64; 3]) -> bool {
-    let length = v.iter().map(|c| c * c).sum::<f64>().sqrt();
-    length > 0.0 && length.is_finite()
 }
 
 fn vec3(v: [f64; 3]) -> String {
@@ -769,93 +695,6 @@ impl Validator<'_> {
             );
         }
         self.finite3(&at("center"), m.center, "m");
-    }
-
-    /// One `[[obstacle]]`: exactly one shape, with usable numbers; friction, motion, duration.
-    /// (A mesh file is read, and its problems reported, when the scene is built.)
-    fn obstacle(&mut self, i: usize, o: &ObstacleEntry) {
-        let base = key!["obstacle", i];
-        let at = |tail: &[Seg<'static>]| join(&base, tail);
-        let shapes = [
-            ("plane", o.plane.is_some()),
-            ("box", o.cuboid.is_some()),
-            ("sphere", o.sphere.is_some()),
-            ("mesh", o.mesh.is_some()),
-        ];
-        let given: Vec<&str> = shapes.iter().filter(|s| s.1).map(|s| s.0).collect();
-        match given.as_slice() {
-            [] => self.fail(
-                &base,
-                "needs exactly one shape key of plane, box, sphere, mesh; got none",
-            ),
-            [_] => {}
-            [first, second, ..] => self.fail(
-                &at(&key![*second]),
-                format!(
-                    "needs exactly one shape key of plane, box, sphere, mesh; got {first} and {second}"
-                ),
-            ),
-        }
-        if let Some(p) = &o.plane {
-            self.finite3(&at(&key!["plane", "point"]), p.point, "m");
-            if !has_direction(p.normal) {
-                self.fail(
-                    &at(&key!["plane", "normal"]),
-                    format!(
-                        "must be a finite, non-zero direction (its length too), got {}",
-                        vec3(p.normal)
-                    ),
-                );
-            }
-        }
-        if let Some(b) = &o.cuboid {
-            self.finite3(&at(&key!["box", "min"]), b.min, "m");
-            self.finite3(&at(&key!["box", "max"]), b.max, "m");
-            if (0..3).any(|k| b.max[k] <= b.min[k] || b.max[k].is_nan() || b.min[k].is_nan()) {
-                self.fail(
-                    &at(&key!["box", "max"]),
-                    format!(
-                        "must exceed min on every axis, got min = {}, max = {}",
-                        vec3(b.min),
-                        vec3(b.max)
-                    ),
-                );
-            }
-        }
-        if let Some(sphere) = &o.sphere {
-            self.finite3(&at(&key!["sphere", "center"]), sphere.center, "m");
-            self.positive(&at(&key!["sphere", "radius"]), sphere.radius, "m");
-        }
-        if let Some(mesh) = &o.mesh
-            && mesh.as_os_str().is_empty()
-        {
-            self.fail(&at(&key!["mesh"]), "must name a file");
-        }
-        if let Some(name) = &o.name
-            && name.trim().is_empty()
-        {
-            self.fail(&at(&key!["name"]), "must not be empty");
-        }
-        if let Some(mu) = o.friction {
-            self.non_negative(&at(&key!["friction"]), mu, "a Coulomb coefficient");
-        }
-        if let Some(m) = &o.motion {
-            self.motion(&at(&key!["motion"]), m);
-        }
-        if let Some(d) = o.duration {
-            self.non_negative(&at(&key!["duration"]), d, "s");
-        }
-    }
-
-    fn contact(&mut self, c: &ContactSpec) {
-        if let Some(d) = c.distance {
-            self.positive(&key!["contact", "distance"], d, "m");
-        }
-        self.non_negative(
-            &key!["contact", "friction"],
-            c.friction,
-            "a Coulomb coefficient",
-        );
     }
 
     fn load(&mut self, i: usize, load: &LoadSpec) {

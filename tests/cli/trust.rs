@@ -22,14 +22,7 @@ fn run(text: &str, extra: &[&str]) -> (Output, tempfile::TempDir) {
 /// The scene is refused with exit 1 and a message starting `s.toml:LINE:` that names `key`
 /// and contains `word`.
 fn refused(text: &str, line: usize, key: &str, word: &str) {
-    let (out, dir) = run(text, &["-q"]);
-    let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{text}\n{err}");
-    let at = format!("error: s.toml:{line}:");
-    assert!(err.starts_with(&at), "expected {at} in\n{err}");
-    assert!(err.contains(key), "{key} not in {err}");
-    assert!(err.contains(word), "{word} not in {err}");
-    assert!(!dir.path().join("out/frame_0001.vtu").exists(), "{err}");
+    refused_with(&[], text, line, key, word);
 }
 
 #[test]
