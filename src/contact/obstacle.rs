@@ -15,8 +15,7 @@ use std::path::Path;
 use super::surface::ContactSurface;
 use crate::boundary::Motion;
 use crate::error::{Error, Result};
-use crate::io::obj::{TriangleSurface, read_obj};
-use crate::io::stl::read_stl;
+use crate::io::obj::TriangleSurface;
 use crate::math::Vec3;
 
 /// An obstacle's shape at rest (before its motion).
@@ -217,9 +216,10 @@ fn box_surface(min: &Vec3, max: &Vec3) -> TriangleSurface {
     TriangleSurface { positions, faces }
 }
 
-/// The triangle surface of a file, by extension: `.obj`, `.stl`, or else the outward boundary
-/// of the tet mesh [`crate::io::read_mesh`] reads (only the boundary's vertices are kept,
-/// renumbered in mesh order). A tet mesh file without tets is refused by `read_mesh`.
+/// The triangle surface of a file, by extension: a surface file (`.obj`, `.stl`, `.ply`, read
+/// by [`crate::io::read_surface`]), or else the outward boundary of the tet mesh
+/// [`crate::io::read_mesh`] reads (only the boundary's vertices are kept, renumbered in mesh
+/// order). A tet mesh file without tets is refused by `read_mesh`.
 pub fn read_surface(path: &Path) -> Result<TriangleSurface> {
     let ext = path
         .extension()
@@ -227,8 +227,7 @@ pub fn read_surface(path: &Path) -> Result<TriangleSurface> {
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
     match ext.as_str() {
-        "obj" => read_obj(path),
-        "stl" => read_stl(path),
+        "obj" | "stl" | "ply" => crate::io::read_surface(path),
         _ => {
             let mesh = crate::io::read_mesh(path)?.mesh;
             let boundary = ContactSurface::from_mesh(&mesh);

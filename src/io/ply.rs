@@ -9,56 +9,31 @@ use std::path::Path;
 
 use super::obj::TriangleSurface;
 use super::read_bytes;
+use super::text::{Endian, Scalar, decode};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Kind {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
-impl Kind {
-    fn parse(name: &str) -> Option<Kind> {
-        Some(match name {
-            "char" | "int8" => Kind::I8,
-            "uchar" | "uint8" => Kind::U8,
-            "short" | "int16" => Kind::I16,
-            "ushort" | "uint16" => Kind::U16,
-            "int" | "int32" => Kind::I32,
-            "uint" | "uint32" => Kind::U32,
-            "float" | "float32" => Kind::F32,
-            "double" | "float64" => Kind::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Kind::I8 | Kind::U8 => 1,
-            Kind::I16 | Kind::U16 => 2,
-            Kind::I32 | Kind::U32 | Kind::F32 => 4,
-            Kind::F64 => 8,
-        }
-    }
-
-    fn is_integer(self) -> bool {
-        !matches!(self, Kind::F32 | Kind::F64)
-    }
+/// PLY's type names: the binary readers' scalar types.
+fn scalar(name: &str) -> Option<Scalar> {
+    Some(match name {
+        "char" | "int8" => Scalar::I8,
+        "uchar" | "uint8" => Scalar::U8,
+        "short" | "int16" => Scalar::I16,
+        "ushort" | "uint16" => Scalar::U16,
+        "int" | "int32" => Scalar::I32,
+        "uint" | "uint32" => Scalar::U32,
+        "float" | "float32" => Scalar::F32,
+        "double" | "float64" => Scalar::F64,
+        _ => return None,
+    })
 }
 
 #[derive(Clone, Debug)]
 struct Property {
     name: String,
     /// Some(count type) for a list property.
-    list: Option<Kind>,
-    kind: Kind,
+    list: Option<Scalar>,
+    kind: Scalar,
 }
 
 #[derive(Clone, Debug)]
@@ -131,7 +106,7 @@ fn header(path: &Path, data: &[u8]) -> Result<(Encoding, Vec<Element>, usize, us
                 let words: Vec<&str> = tokens.collect();
                 let property = match words.as_slice() {
                     ["list", count, item, name] => {
-                        let (Some(c), Some(i)) = (Kind::parse(count), Kind::parse(item)) else {
+                        let (Some(c), Some(i)) = (scalar(count), scalar(item)) else {
                             return Err(err(line_no, format!("unknown type in `{line}`")));
                         };
                         if !c.is_integer() {
@@ -146,7 +121,7 @@ fn header(path: &Path, data: &[u8]) -> Result<(Encoding, Vec<Element>, usize, us
                     [kind, name] => Property {
                         name: name.to_string(),
                         list: None,
-                        kind: Kind::parse(kind).ok_or_else(|| {
+                        kind: scalar(kind).ok_or_else(|| {
                             err(line_no, format!("unknown property type `{kind}`"))
                         })?,
                     },
@@ -252,7 +227,7 @@ impl Body<'_> {
         Ok(row)
     }
 
-    fn value(&mut self, kind: Kind, element: &Element, index: usize) -> Result<f64> {
+    fn value(&mut self, kind: Scalar, element: &Element, index: usize) -> Result<f64> {
         let size = kind.size();
         let Some(bytes) = self.data.get(self.offset..self.offset + size) else {
             return Err(Error::parse(
@@ -268,21 +243,12 @@ impl Body<'_> {
             ));
         };
         self.offset += size;
-        let mut b = [0u8; 8];
-        b[..size].copy_from_slice(bytes);
-        if self.encoding == Encoding::Big {
-            b[..size].reverse();
-        }
-        Ok(match kind {
-            Kind::I8 => b[0] as i8 as f64,
-            Kind::U8 => b[0] as f64,
-            Kind::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
-            Kind::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
-            Kind::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            Kind::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            Kind::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            Kind::F64 => f64::from_le_bytes(b),
-        })
+        let endian = if self.encoding == Encoding::Big {
+            Endian::Big
+        } else {
+            Endian::Little
+        };
+        Ok(decode(bytes, kind, endian).as_f64())
     }
 
     fn binary_row(&mut self, element: &Element, index: usize) -> Result<Row> {

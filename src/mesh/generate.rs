@@ -79,6 +79,76 @@ pub fn box_mesh(min: Vec3, max: Vec3, cells: [usize; 3]) -> TetMesh {
     mesh
 }
 
+/// A unit icosahedron subdivided `levels` times (each triangle into 4, new vertices pushed onto
+/// the sphere), outward triangles.
+pub fn icosphere(levels: usize) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let g = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut points: Vec<Vec3> = [
+        (-1.0, g, 0.0),
+        (1.0, g, 0.0),
+        (-1.0, -g, 0.0),
+        (1.0, -g, 0.0),
+        (0.0, -1.0, g),
+        (0.0, 1.0, g),
+        (0.0, -1.0, -g),
+        (0.0, 1.0, -g),
+        (g, 0.0, -1.0),
+        (g, 0.0, 1.0),
+        (-g, 0.0, -1.0),
+        (-g, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut triangles: Vec<[usize; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        // Midpoints shared between the two triangles of an edge, found in a sorted list (no
+        // hash order reaches the output).
+        let mut midpoints: Vec<((usize, usize), usize)> = Vec::new();
+        let mut midpoint = |a: usize, b: usize, points: &mut Vec<Vec3>| {
+            let key = (a.min(b), a.max(b));
+            match midpoints.binary_search_by_key(&key, |e| e.0) {
+                Ok(i) => midpoints[i].1,
+                Err(i) => {
+                    points.push((0.5 * (points[a] + points[b])).normalize());
+                    midpoints.insert(i, (key, points.len() - 1));
+                    points.len() - 1
+                }
+            }
+        };
+        let mut finer = Vec::with_capacity(4 * triangles.len());
+        for [a, b, c] in triangles {
+            let ab = midpoint(a, b, &mut points);
+            let bc = midpoint(b, c, &mut points);
+            let ca = midpoint(c, a, &mut points);
+            finer.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        triangles = finer;
+    }
+    (points, triangles)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -16,65 +16,7 @@ const MAX_ANGLE: f64 = 164.8;
 
 /// A unit sphere: an icosahedron subdivided `levels` times, projected, outward oriented.
 pub fn icosphere(levels: usize) -> TriangleSurface {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut positions: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|p| Vec3::from(*p).normalize())
-    .collect();
-    let mut faces: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mids = std::collections::BTreeMap::new();
-        let mut mid = |a: usize, b: usize, positions: &mut Vec<Vec3>| {
-            *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                positions.push((positions[a] + positions[b]).normalize());
-                positions.len() - 1
-            })
-        };
-        let mut next = Vec::new();
-        for [a, b, c] in faces {
-            let (ab, bc, ca) = (
-                mid(a, b, &mut positions),
-                mid(b, c, &mut positions),
-                mid(c, a, &mut positions),
-            );
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        faces = next;
-    }
+    let (positions, faces) = tetsim::mesh::generate::icosphere(levels);
     TriangleSurface { positions, faces }
 }
 
